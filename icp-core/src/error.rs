@@ -1,0 +1,90 @@
+//! Typed errors for everything a caller can get wrong.
+
+use std::fmt;
+
+/// Which scan of a pair an error is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScanRole {
+    /// Scan k, the scan being moved.
+    Source,
+    /// Scan k+1, the scan matched against.
+    Reference,
+}
+
+impl fmt::Display for ScanRole {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ScanRole::Source => "source",
+            ScanRole::Reference => "reference",
+        })
+    }
+}
+
+/// How a point set is degenerate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Degeneracy {
+    /// All points (nearly) coincide: neither rotation nor translation is observable.
+    Coincident,
+    /// All points lie (nearly) on one line: translation along it is not observable.
+    Collinear,
+}
+
+impl fmt::Display for Degeneracy {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Degeneracy::Coincident => "all points coincide",
+            Degeneracy::Collinear => "all points are collinear",
+        })
+    }
+}
+
+/// Errors of scan construction and registration.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum IcpError {
+    /// Ranges and bearings (or two parallel inputs) differ in length.
+    #[error("mismatched lengths: {what} has {got} values, expected {expected}")]
+    LengthMismatch {
+        what: &'static str,
+        expected: usize,
+        got: usize,
+    },
+    /// A value that must be finite is NaN or infinite.
+    #[error("non-finite {what} at index {index}: {value}")]
+    NonFinite {
+        what: &'static str,
+        index: usize,
+        value: f64,
+    },
+    /// A range below zero.
+    #[error("negative range at index {index}: {value} m")]
+    NegativeRange { index: usize, value: f64 },
+    /// Fewer points than the registration needs.
+    #[error("{role} scan has {got} usable points, at least {need} are needed")]
+    TooFewPoints {
+        role: ScanRole,
+        got: usize,
+        need: usize,
+    },
+    /// The point set cannot constrain a rigid motion.
+    #[error("{role} scan is ill-conditioned: {kind}")]
+    Degenerate { role: ScanRole, kind: Degeneracy },
+    /// A coordinate the nearest-neighbour index cannot hold.
+    #[error("coordinate out of the matcher's range at point {index}: {value}")]
+    CoordinateOutOfRange { index: usize, value: f64 },
+    /// A parameter outside its domain.
+    #[error("invalid parameter {name} = {value}: {reason}")]
+    InvalidParameter {
+        name: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+    /// A pair weight that is NaN, infinite or negative.
+    #[error("pair {pair} has an invalid weight {value}")]
+    InvalidWeight { pair: usize, value: f64 },
+    /// The weights of all pairs sum to zero (or are not finite).
+    #[error("the pair weights sum to {sum}: no pair constrains the motion")]
+    DegenerateWeights { sum: f64 },
+    /// The minimiser produced a non-finite transform.
+    #[error("the minimiser produced a non-finite transform")]
+    NonFiniteTransform,
+}

@@ -1,0 +1,199 @@
+//! The ICP loop (Naus & Marchel 2019, Algorithm 1 and eqs. 14, 21, 22) and the
+//! [`Registrar`] trait every registration method implements.
+
+use nalgebra::{Isometry2, Point2};
+
+use crate::error::ScanRole;
+use crate::matching::{Correspondence, Matcher, NearestIndex};
+use crate::minimize::Minimizer;
+use crate::robust::RobustKernel;
+use crate::scan::{check_geometry, Return, Scan};
+use crate::select::Selection;
+use crate::termination::{StopReason, Termination};
+use crate::weighting::{PairView, PairWeighting};
+use crate::IcpError;
+
+/// The outcome of one registration of a source scan onto a reference scan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Registration {
+    /// Maps points of the source scan (k) into the reference scan's frame (k+1).
+    pub t_ref_src: Isometry2<f64>,
+    /// Minimisation steps taken.
+    pub iterations: usize,
+    /// Why the loop stopped.
+    pub stop: StopReason,
+    /// Pairs used by the last minimisation step.
+    pub n_pairs: usize,
+    /// Sum of the final pair weights of the last minimisation step (scheme × robust factor).
+    pub weight_sum: f64,
+    /// Mean pair distance after the final estimate, metres.
+    pub mean_dist_m: f64,
+}
+
+impl Registration {
+    /// True when the mean pair distance settled before the iteration limit.
+    pub fn converged(&self) -> bool {
+        self.stop == StopReason::Converged
+    }
+}
+
+/// A registration method: estimates `t_ref_src` from two scans and an initial guess.
+pub trait Registrar: Send + Sync {
+    /// A short name, e.g. `HD_ICP`.
+    fn name(&self) -> &str;
+    /// Registers `source` (scan k) onto `reference` (scan k+1), starting from `init`.
+    fn register(
+        &self,
+        source: &Scan,
+        reference: &Scan,
+        init: Isometry2<f64>,
+    ) -> Result<Registration, IcpError>;
+}
+
+/// Point-to-point ICP as a chain of stages (Algorithm 1): selection `S`, matching `M`, pair
+/// weighting `W`, robust rejection `K` and minimisation `X`, plus the termination rule. The
+/// paper's four variants are constructors in [`crate::variants`].
+#[derive(Clone, Debug)]
+pub struct Icp<S, M, W, K, X> {
+    /// Name reported by [`Registrar::name`].
+    pub name: String,
+    /// Step 1: which points take part.
+    pub selection: S,
+    /// Step 2: nearest-neighbour index over the reference scan.
+    pub matcher: M,
+    /// Step 3: per-pair weights (eqs. 11–13).
+    pub weighting: W,
+    /// Step 4: robust factor on the weights.
+    pub robust: K,
+    /// Step 5: the minimiser of eq. 14.
+    pub minimizer: X,
+    /// Step 6: when to stop.
+    pub termination: Termination,
+}
+
+impl<S, M, W, K, X> Icp<S, M, W, K, X> {
+    /// The same chain with another matcher.
+    pub fn with_matcher<M2>(self, matcher: M2) -> Icp<S, M2, W, K, X> {
+        Icp {
+            name: self.name,
+            selection: self.selection,
+            matcher,
+            weighting: self.weighting,
+            robust: self.robust,
+            minimizer: self.minimizer,
+            termination: self.termination,
+        }
+    }
+
+    /// The same chain with another selection.
+    pub fn with_selection<S2>(self, selection: S2) -> Icp<S2, M, W, K, X> {
+        Icp {
+            name: self.name,
+            selection,
+            matcher: self.matcher,
+            weighting: self.weighting,
+            robust: self.robust,
+            minimizer: self.minimizer,
+            termination: self.termination,
+        }
+    }
+
+    /// The same chain with another termination rule.
+    pub fn with_termination(mut self, termination: Termination) -> Self {
+        self.termination = termination;
+        self
+    }
+}
+
+/// Mean of the pair distances, metres.
+fn mean_distance(pairs: &[Correspondence]) -> f64 {
+    pairs.iter().map(|p| p.dist_sq.sqrt()).sum::<f64>() / pairs.len() as f64
+}
+
+impl<S, M, W, K, X> Registrar for Icp<S, M, W, K, X>
+where
+    S: Selection,
+    M: Matcher,
+    W: PairWeighting,
+    K: RobustKernel,
+    X: Minimizer,
+{
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn register(
+        &self,
+        source: &Scan,
+        reference: &Scan,
+        init: Isometry2<f64>,
+    ) -> Result<Registration, IcpError> {
+        self.termination.validate()?;
+        for (name, value) in [("init.translation", init.translation.vector.norm()), ("init.rotation", init.rotation.angle())] {
+            if !value.is_finite() {
+                return Err(IcpError::NonFinite { what: name, index: 0, value });
+            }
+        }
+        // Alg. 1 step 1: selection; the chosen points are gathered once, before the loop.
+        let (mut src_idx, mut ref_idx) = (Vec::new(), Vec::new());
+        self.selection.select(source.len(), reference.len(), &mut src_idx, &mut ref_idx);
+        let src: Vec<Return> = src_idx.iter().map(|&i| source.returns()[i]).collect();
+        let dst: Vec<Return> = ref_idx.iter().map(|&i| reference.returns()[i]).collect();
+        let src_pts: Vec<Point2<f64>> = src.iter().map(|r| r.point).collect();
+        let dst_pts: Vec<Point2<f64>> = dst.iter().map(|r| r.point).collect();
+        check_geometry(src_pts.iter(), ScanRole::Source)?;
+        check_geometry(dst_pts.iter(), ScanRole::Reference)?;
+        let index = self.matcher.build(&dst_pts)?;
+
+        // Buffers reused by every iteration: nothing is allocated inside the loop.
+        let mut moved = src_pts.clone();
+        let mut pairs = Vec::with_capacity(src.len());
+        let mut weights = Vec::with_capacity(src.len());
+        let mut scratch = Vec::with_capacity(src.len());
+
+        let mut t_ref_src = init;
+        let mut previous_mean: Option<f64> = None;
+        let mut last_weight_sum = 0.0;
+        let mut iterations = 0;
+        let (stop, mean_dist_m) = loop {
+            for (m, p) in moved.iter_mut().zip(&src_pts) {
+                *m = t_ref_src * p; // eqs. 21, 22: the accumulated transform applied to scan k
+            }
+            index.match_all(&moved, &mut pairs); // Alg. 1 step 2
+            let mean = mean_distance(&pairs); // Alg. 1 step 6: the mean pair distance
+            if let Some(prev) = previous_mean {
+                if self.termination.converged(prev, mean) {
+                    break (StopReason::Converged, mean);
+                }
+            }
+            if iterations == self.termination.max_iterations {
+                break (StopReason::MaxIterations, mean);
+            }
+            // Alg. 1 step 3, eqs. 11–13: the scheme's weight of each pair.
+            weights.clear();
+            weights.extend(pairs.iter().map(|c| {
+                self.weighting.weight(&PairView {
+                    src: &src[c.src],
+                    dst: &dst[c.dst],
+                    src_moved: moved[c.src],
+                    rotation_ref_src: t_ref_src.rotation,
+                })
+            }));
+            self.robust.reweight(&pairs, &mut weights, &mut scratch); // Alg. 1 step 4, Huber
+            // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
+            let increment = self.minimizer.solve(&moved, &dst_pts, &pairs, &weights)?;
+            last_weight_sum = weights.iter().sum();
+            t_ref_src = increment * t_ref_src;
+            iterations += 1;
+            previous_mean = Some(mean);
+        };
+        Ok(Registration {
+            t_ref_src,
+            iterations,
+            stop,
+            n_pairs: pairs.len(),
+            weight_sum: last_weight_sum,
+            mean_dist_m,
+        })
+    }
+}

@@ -1,0 +1,207 @@
+//! Nearest-neighbour matching, Algorithm 1 step 2.
+//!
+//! A [`Matcher`] is the stage's configuration; it builds a [`NearestIndex`] once per reference
+//! scan, which then answers one query per moved source point at every iteration.
+
+use nalgebra::Point2;
+use serde::{Deserialize, Serialize};
+
+use crate::IcpError;
+
+mod brute;
+mod delaunay;
+mod kdtree;
+
+pub use brute::BruteForce;
+pub use delaunay::Delaunay;
+pub use kdtree::KdTree;
+
+/// One matched pair: source point `src` (moved) and its nearest reference point `dst`.
+/// The distance is *squared*, as nearest-neighbour indices return it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Correspondence {
+    /// Index of the source point.
+    pub src: usize,
+    /// Index of the nearest reference point.
+    pub dst: usize,
+    /// Squared distance between the moved source point and the reference point, m².
+    pub dist_sq: f64,
+}
+
+/// A nearest-neighbour index over the reference points.
+pub trait NearestIndex: Send + Sync {
+    /// Index and squared distance of the reference point nearest to `query`. Among points at
+    /// exactly the same distance any may be returned.
+    fn nearest(&self, query: &Point2<f64>) -> (usize, f64);
+
+    /// Fills `out` (cleared first) with one correspondence per moved source point.
+    fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Vec<Correspondence>) {
+        out.clear();
+        out.extend(moved_src.iter().enumerate().map(|(src, q)| {
+            let (dst, dist_sq) = self.nearest(q);
+            Correspondence { src, dst, dist_sq }
+        }));
+    }
+}
+
+/// Builds a [`NearestIndex`] over a reference scan.
+pub trait Matcher: Send + Sync {
+    /// The index this matcher builds.
+    type Index: NearestIndex;
+    /// Builds the index over `reference` (non-empty, finite points).
+    fn build(&self, reference: &[Point2<f64>]) -> Result<Self::Index, IcpError>;
+}
+
+/// The matchers by name, for configuration files and the command line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MatcherKind {
+    /// k-d tree ([`KdTree`]).
+    #[default]
+    Kdtree,
+    /// Delaunay nearest vertex, as in the paper ([`Delaunay`]).
+    Delaunay,
+    /// Exhaustive search ([`BruteForce`]), the oracle for tests.
+    Brute,
+}
+
+impl std::str::FromStr for MatcherKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "kdtree" | "kd-tree" => Ok(Self::Kdtree),
+            "delaunay" => Ok(Self::Delaunay),
+            "brute" | "brute-force" => Ok(Self::Brute),
+            other => Err(format!("unknown matcher {other:?}: expected kdtree, delaunay or brute")),
+        }
+    }
+}
+
+impl std::fmt::Display for MatcherKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Kdtree => "kdtree",
+            Self::Delaunay => "delaunay",
+            Self::Brute => "brute",
+        })
+    }
+}
+
+/// Checks what every index needs: at least one point, all finite, indices fit in `u32`.
+fn check_reference(reference: &[Point2<f64>]) -> Result<(), IcpError> {
+    if reference.is_empty() {
+        return Err(IcpError::TooFewPoints {
+            role: crate::error::ScanRole::Reference,
+            got: 0,
+            need: 1,
+        });
+    }
+    if reference.len() > u32::MAX as usize {
+        return Err(IcpError::InvalidParameter {
+            name: "reference.len()",
+            value: reference.len() as f64,
+            reason: "a nearest-neighbour index holds at most u32::MAX points",
+        });
+    }
+    for (index, p) in reference.iter().enumerate() {
+        if let Some(&value) = p.coords.iter().find(|v| !v.is_finite()) {
+            return Err(IcpError::NonFinite {
+                what: "reference coordinate",
+                index,
+                value,
+            });
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn points(v: &[(f64, f64)]) -> Vec<Point2<f64>> {
+        v.iter().map(|&(x, y)| Point2::new(x, y)).collect()
+    }
+
+    fn check_all_agree(reference: &[Point2<f64>], queries: &[Point2<f64>]) {
+        let brute = BruteForce.build(reference).unwrap();
+        let kd = KdTree.build(reference).unwrap();
+        let dl = Delaunay.build(reference).unwrap();
+        for q in queries {
+            let want = brute.nearest(q);
+            for (name, got) in [("kdtree", kd.nearest(q)), ("delaunay", dl.nearest(q))] {
+                assert_eq!(got.1, want.1, "{name} distance for {q:?}");
+                // Continuous random inputs have no ties, so the index must agree too.
+                assert_eq!(got.0, want.0, "{name} index for {q:?}");
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn kdtree_and_delaunay_agree_with_brute_force(
+            reference in prop::collection::vec((-40.0..40.0f64, -40.0..40.0f64), 3..400),
+            queries in prop::collection::vec((-50.0..50.0f64, -50.0..50.0f64), 1..200),
+        ) {
+            check_all_agree(&points(&reference), &points(&queries));
+        }
+    }
+
+    #[test]
+    fn matchers_agree_on_a_wall_scan() {
+        // Dense, structured points (a quay seen by a LIDAR) with queries just off them.
+        let reference: Vec<_> = (0..700)
+            .map(|i| {
+                let a = i as f64 * 0.48f64.to_radians();
+                let r = 12.0 + 6.0 * (3.0 * a).sin();
+                Point2::new(r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let queries: Vec<_> = reference.iter().map(|p| p + nalgebra::Vector2::new(0.07, -0.03)).collect();
+        check_all_agree(&reference, &queries);
+    }
+
+    #[test]
+    fn duplicates_resolve_to_the_lowest_index_with_equal_distance() {
+        let reference = points(&[(1.0, 1.0), (0.0, 0.0), (1.0, 1.0), (5.0, 0.0)]);
+        let q = Point2::new(1.1, 1.0);
+        for (i, d) in [
+            BruteForce.build(&reference).unwrap().nearest(&q),
+            KdTree.build(&reference).unwrap().nearest(&q),
+            Delaunay.build(&reference).unwrap().nearest(&q),
+        ] {
+            assert!(i == 0 || i == 2);
+            assert!((d - 0.01).abs() < 1e-15);
+        }
+        assert_eq!(BruteForce.build(&reference).unwrap().nearest(&q).0, 0);
+    }
+
+    #[test]
+    fn collinear_reference_still_matches() {
+        let reference = points(&[(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (3.0, 3.0)]);
+        let queries = points(&[(2.9, 3.2), (-1.0, 0.0), (1.4, 1.7)]);
+        check_all_agree(&reference, &queries);
+    }
+
+    #[test]
+    fn empty_reference_is_an_error() {
+        assert!(BruteForce.build(&[]).is_err());
+        assert!(KdTree.build(&[]).is_err());
+        assert!(Delaunay.build(&[]).is_err());
+    }
+
+    #[test]
+    fn out_of_range_coordinates_are_an_error_not_a_panic() {
+        let reference = points(&[(0.0, 0.0), (1e300, 0.0), (0.0, 1.0)]);
+        assert!(matches!(
+            Delaunay.build(&reference),
+            Err(IcpError::CoordinateOutOfRange { index: 1, .. })
+        ));
+        let nan = points(&[(0.0, f64::NAN)]);
+        for r in [BruteForce.build(&nan).err(), KdTree.build(&nan).err(), Delaunay.build(&nan).err()] {
+            assert!(matches!(r, Some(IcpError::NonFinite { .. })));
+        }
+    }
+}

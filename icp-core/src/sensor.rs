@@ -1,0 +1,209 @@
+//! The LIDAR error model of Naus & Marchel (2019), Section 2: eqs. 5, 8 and 9.
+
+use nalgebra::{Matrix2, Vector2};
+use serde::{Deserialize, Serialize};
+
+use crate::IcpError;
+
+/// Range and bearing standard deviations of a 2D LIDAR, `σ_r(r) = σ_r0 + k·r` and `σ_α`.
+///
+/// The default is the Scanse Sweep of the paper: `σ_r = 0.004258·r` (Naus & Marchel 2019,
+/// Section 3) and `σ_α = 0.5°` (the Sweep manual's beam divergence: the paper prints no usable
+/// value, see `PAPER.md`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorModel {
+    /// Constant part of the range standard deviation, metres.
+    pub sigma_r_const_m: f64,
+    /// Range-proportional part of the range standard deviation, metres per metre.
+    pub sigma_r_per_m: f64,
+    /// Bearing standard deviation, radians.
+    pub sigma_alpha_rad: f64,
+}
+
+impl Default for SensorModel {
+    fn default() -> Self {
+        Self::sweep()
+    }
+}
+
+impl SensorModel {
+    /// Range-proportional error of the Scanse Sweep used by the paper, m/m.
+    pub const SWEEP_SIGMA_R_PER_M: f64 = 0.004258;
+    /// Bearing error of the Scanse Sweep (beam divergence), degrees.
+    pub const SWEEP_SIGMA_ALPHA_DEG: f64 = 0.5;
+
+    /// The Scanse Sweep: `σ_r = 0.004258·r`, `σ_α = 0.5°`.
+    pub fn sweep() -> Self {
+        Self {
+            sigma_r_const_m: 0.0,
+            sigma_r_per_m: Self::SWEEP_SIGMA_R_PER_M,
+            sigma_alpha_rad: Self::SWEEP_SIGMA_ALPHA_DEG.to_radians(),
+        }
+    }
+
+    /// The Sweep model with another bearing error, degrees.
+    pub fn sweep_with_sigma_alpha_deg(sigma_alpha_deg: f64) -> Result<Self, IcpError> {
+        let m = Self {
+            sigma_alpha_rad: sigma_alpha_deg.to_radians(),
+            ..Self::sweep()
+        };
+        m.validate()?;
+        Ok(m)
+    }
+
+    /// Checks that every σ is finite and non-negative and that both `σ_α` and `σ_r(r)` are
+    /// positive for `r > 0`, so that the weights of eqs. 11–13 are finite.
+    pub fn validate(&self) -> Result<(), IcpError> {
+        let fields = [
+            ("sigma_r_const_m", self.sigma_r_const_m),
+            ("sigma_r_per_m", self.sigma_r_per_m),
+            ("sigma_alpha_rad", self.sigma_alpha_rad),
+        ];
+        for (name, value) in fields {
+            if !value.is_finite() || value < 0.0 {
+                return Err(IcpError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "must be finite and non-negative",
+                });
+            }
+        }
+        if self.sigma_alpha_rad == 0.0 {
+            return Err(IcpError::InvalidParameter {
+                name: "sigma_alpha_rad",
+                value: 0.0,
+                reason: "must be positive: a zero bearing error makes the weights infinite",
+            });
+        }
+        if self.sigma_r_const_m == 0.0 && self.sigma_r_per_m == 0.0 {
+            return Err(IcpError::InvalidParameter {
+                name: "sigma_r_per_m",
+                value: 0.0,
+                reason: "sigma_r(r) must be positive: set sigma_r_const_m or sigma_r_per_m",
+            });
+        }
+        Ok(())
+    }
+
+    /// Range standard deviation `σ_r(r)`, metres.
+    #[inline]
+    pub fn sigma_r_m(&self, range_m: f64) -> f64 {
+        self.sigma_r_const_m + self.sigma_r_per_m * range_m
+    }
+
+    /// Squared mean position error `M² = (σ_α r)² + σ_r²`, m² (eq. 5).
+    #[inline]
+    pub fn mean_error_sq(&self, range_m: f64) -> f64 {
+        let across = self.sigma_alpha_rad * range_m;
+        let along = self.sigma_r_m(range_m);
+        across * across + along * along
+    }
+
+    /// Covariance of the point `(r cos α, r sin α)`, m² (eq. 8):
+    /// `σ_r² u_r u_rᵀ + (σ_α r)² u_t u_tᵀ` with `u_r = (cos α, sin α)`, `u_t = (−sin α, cos α)`.
+    pub fn covariance(&self, range_m: f64, bearing_rad: f64) -> Matrix2<f64> {
+        let (s, c) = bearing_rad.sin_cos();
+        let u_r = Vector2::new(c, s);
+        let u_t = Vector2::new(-s, c);
+        let along = self.sigma_r_m(range_m);
+        let across = self.sigma_alpha_rad * range_m;
+        u_r * u_r.transpose() * (along * along) + u_t * u_t.transpose() * (across * across)
+    }
+
+    /// Variance of the point's position along the direction `β`, m² (eq. 9, matrix form
+    /// `S_β Cov S_βᵀ` with `S_β = [cos β, sin β]`; the printed expansion has typesetting slips).
+    pub fn directional_variance(&self, range_m: f64, bearing_rad: f64, beta_rad: f64) -> f64 {
+        let (s, c) = beta_rad.sin_cos();
+        let s_beta = Vector2::new(c, s);
+        (s_beta.transpose() * self.covariance(range_m, bearing_rad) * s_beta)[(0, 0)]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn covariance_matches_monte_carlo_sample() {
+        let model = SensorModel::sweep();
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for &(r, alpha_deg) in &[(5.0, 0.0), (20.0, 37.0), (35.0, -121.0)] {
+            let alpha: f64 = f64::to_radians(alpha_deg);
+            let n_r = Normal::new(0.0, model.sigma_r_m(r)).unwrap();
+            let n_a = Normal::new(0.0, model.sigma_alpha_rad).unwrap();
+            let n = 200_000;
+            let samples: Vec<Vector2<f64>> = (0..n)
+                .map(|_| {
+                    let (rr, aa) = (r + n_r.sample(&mut rng), alpha + n_a.sample(&mut rng));
+                    Vector2::new(rr * aa.cos(), rr * aa.sin())
+                })
+                .collect();
+            let mean = samples.iter().sum::<Vector2<f64>>() / n as f64;
+            let cov = samples
+                .iter()
+                .map(|p| (p - mean) * (p - mean).transpose())
+                .sum::<Matrix2<f64>>()
+                / (n as f64 - 1.0);
+            let expected = model.covariance(r, alpha);
+            // Compare in the beam frame, where eq. 8 is diagonal: each variance is estimated
+            // with a relative standard error of sqrt(2/n) = 0.32 %; 2 % is more than 6 sigma and
+            // still catches a swapped or missing term (they differ by factors of 2 to 40).
+            let rot = nalgebra::Rotation2::new(alpha).into_inner();
+            let beam = rot.transpose() * cov * rot;
+            let beam_expected = rot.transpose() * expected * rot;
+            for i in 0..2 {
+                let rel = (beam[(i, i)] - beam_expected[(i, i)]).abs() / beam_expected[(i, i)];
+                assert!(rel < 0.02, "r={r} alpha={alpha_deg} axis {i}: rel err {rel}");
+            }
+            let corr = beam[(0, 1)] / (beam[(0, 0)] * beam[(1, 1)]).sqrt();
+            assert!(corr.abs() < 0.02, "beam-frame correlation {corr}");
+            assert!((beam_expected[(0, 1)]).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn directional_variance_matches_closed_form() {
+        // Independent computation: project each axis of the error ellipse on the direction.
+        let model = SensorModel {
+            sigma_r_const_m: 0.01,
+            sigma_r_per_m: 0.004258,
+            sigma_alpha_rad: 0.8f64.to_radians(),
+        };
+        for &(r, a, b) in &[(3.0f64, 0.1f64, 0.1f64), (12.0, 1.0, 2.5), (30.0, -2.0, 0.7), (7.0, 3.0, -3.0)] {
+            let along = model.sigma_r_m(r);
+            let across = model.sigma_alpha_rad * r;
+            let d = b - a;
+            let expected = along * along * d.cos().powi(2) + across * across * d.sin().powi(2);
+            let got = model.directional_variance(r, a, b);
+            assert!((got - expected).abs() <= 1e-15 * expected.max(1.0), "{got} vs {expected}");
+        }
+        // Along the beam only σ_r counts, across it only σ_α r (the ellipse axes, eqs. 6, 7).
+        let r = 10.0;
+        let a = 0.3;
+        assert!((model.directional_variance(r, a, a) - model.sigma_r_m(r).powi(2)).abs() < 1e-15);
+        let across = (model.sigma_alpha_rad * r).powi(2);
+        let perpendicular = a + std::f64::consts::FRAC_PI_2;
+        assert!((model.directional_variance(r, a, perpendicular) - across).abs() < 1e-15);
+        // Averaged over all directions σ_β² is M²/2 (eq. 5): trace of eq. 8 is M².
+        assert!((model.covariance(r, a).trace() - model.mean_error_sq(r)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn validate_rejects_bad_parameters() {
+        assert!(SensorModel::sweep().validate().is_ok());
+        let bad = [
+            SensorModel { sigma_alpha_rad: f64::NAN, ..SensorModel::sweep() },
+            SensorModel { sigma_alpha_rad: 0.0, ..SensorModel::sweep() },
+            SensorModel { sigma_r_per_m: -1.0, ..SensorModel::sweep() },
+            SensorModel { sigma_r_per_m: 0.0, ..SensorModel::sweep() },
+            SensorModel { sigma_r_const_m: f64::INFINITY, ..SensorModel::sweep() },
+        ];
+        for m in bad {
+            assert!(matches!(m.validate(), Err(IcpError::InvalidParameter { .. })), "{m:?}");
+        }
+    }
+}

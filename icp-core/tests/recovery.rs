@@ -1,0 +1,211 @@
+//! Every variant, with every matcher, recovers known rigid motions of noise-free scans.
+
+use icp_core::matching::MatcherKind;
+use icp_core::variants::{Variant, VariantConfig};
+use icp_core::{Registrar, Scan};
+use nalgebra::{Isometry2, Point2, Vector2};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Points at least `spacing` apart in a 60 m square (dart throwing), so that nearest
+/// neighbours are the true correspondences whenever the start is off by less than half of it.
+fn spread_points(seed: u64, n: usize, spacing: f64) -> Vec<[f64; 2]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut pts: Vec<[f64; 2]> = Vec::with_capacity(n);
+    while pts.len() < n {
+        let p = [rng.random_range(-30.0..30.0), rng.random_range(-30.0..30.0)];
+        if pts.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= spacing) {
+            pts.push(p);
+        }
+    }
+    pts
+}
+
+/// A harbour-like scene: quay walls and a hull sampled every 0.5 m, as a LIDAR sees them.
+fn structured_points(seed: u64) -> Vec<[f64; 2]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let corners: [[f64; 2]; 5] = [[-25.0, -12.0], [22.0, -12.0], [22.0, 15.0], [5.0, 15.0], [5.0, 25.0]];
+    let mut pts = Vec::new();
+    for w in corners.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let n = (len / 0.5) as usize;
+        for i in 0..n {
+            let s = i as f64 / n as f64;
+            pts.push([a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])]);
+        }
+    }
+    // A moored hull: an ellipse at a random place.
+    let (cx, cy) = (rng.random_range(-15.0..10.0), rng.random_range(-8.0..8.0));
+    for i in 0..24 {
+        let a = i as f64 * std::f64::consts::TAU / 24.0;
+        pts.push([cx + 3.0 * a.cos(), cy + 1.0 * a.sin()]);
+    }
+    pts
+}
+
+fn transform(t: &Isometry2<f64>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    pts.iter()
+        .map(|p| {
+            let q = t * Point2::new(p[0], p[1]);
+            [q.x, q.y]
+        })
+        .collect()
+}
+
+fn registrars() -> Vec<Box<dyn Registrar>> {
+    let mut out = Vec::new();
+    for matcher in [MatcherKind::Kdtree, MatcherKind::Delaunay, MatcherKind::Brute] {
+        let config = VariantConfig { matcher, ..Default::default() };
+        for v in Variant::ALL {
+            out.push(v.build(&config).unwrap());
+        }
+    }
+    out
+}
+
+fn assert_recovers(source: &[[f64; 2]], truth: Isometry2<f64>, init: Isometry2<f64>) -> Result<(), TestCaseError> {
+    let src = Scan::from_cartesian(source).unwrap();
+    let reference = Scan::from_cartesian(&transform(&truth, source)).unwrap();
+    for reg in registrars() {
+        let out = reg.register(&src, &reference, init).unwrap();
+        let dt = (out.t_ref_src.translation.vector - truth.translation.vector).norm();
+        let dr = (out.t_ref_src.rotation.angle() - truth.rotation.angle()).abs();
+        prop_assert!(dt < 1e-6, "{}: translation error {dt} m", reg.name());
+        prop_assert!(dr < 1e-6, "{}: rotation error {dr} rad", reg.name());
+        prop_assert!(out.converged(), "{} did not converge", reg.name());
+        prop_assert!(out.mean_dist_m < 1e-6);
+        prop_assert_eq!(out.n_pairs, source.len());
+    }
+    Ok(())
+}
+
+/// The start is the truth off by up to 5 cm and 0.1°: far less than half the point spacing,
+/// so the first matching already pairs every point with its true partner.
+fn perturbed(truth: Isometry2<f64>, dx: f64, dy: f64, dtheta_deg: f64) -> Isometry2<f64> {
+    Isometry2::new(Vector2::new(dx, dy), dtheta_deg.to_radians()) * truth
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn random_scans_recover_random_motions(
+        seed in 0u64..1000,
+        theta_deg in -30.0..30.0f64,
+        t_len in 0.0..3.0f64,
+        t_dir in -3.14..3.14f64,
+        (dx, dy, dth) in (-0.05..0.05f64, -0.05..0.05f64, -0.1..0.1f64),
+    ) {
+        let truth = Isometry2::new(Vector2::new(t_len * t_dir.cos(), t_len * t_dir.sin()), theta_deg.to_radians());
+        let source = spread_points(seed, 150, 1.0);
+        assert_recovers(&source, truth, perturbed(truth, dx, dy, dth))?;
+    }
+
+    #[test]
+    fn structured_scans_recover_random_motions(
+        seed in 0u64..1000,
+        theta_deg in -30.0..30.0f64,
+        t_len in 0.0..3.0f64,
+        t_dir in -3.14..3.14f64,
+        (dx, dy, dth) in (-0.03..0.03f64, -0.03..0.03f64, -0.05..0.05f64),
+    ) {
+        let truth = Isometry2::new(Vector2::new(t_len * t_dir.cos(), t_len * t_dir.sin()), theta_deg.to_radians());
+        assert_recovers(&structured_points(seed), truth, perturbed(truth, dx, dy, dth))?;
+    }
+}
+
+#[test]
+fn small_motion_from_identity_is_recovered_on_structured_scan() {
+    // The usual use: consecutive scans, no prior, a step of 0.3 m and 0.5°.
+    let truth = Isometry2::new(Vector2::new(-0.3, 0.05), 0.5f64.to_radians());
+    assert_recovers(&structured_points(1), truth, Isometry2::identity()).unwrap();
+}
+
+#[test]
+fn identical_scans_give_zero_motion_to_machine_precision() {
+    let pts = structured_points(2);
+    let scan = Scan::from_cartesian(&pts).unwrap();
+    for reg in registrars() {
+        let out = reg.register(&scan, &scan, Isometry2::identity()).unwrap();
+        // The SVD's rotation is the identity to rounding, not bit-exactly.
+        assert!(out.t_ref_src.translation.vector.norm() < 1e-12, "{}", reg.name());
+        assert!(out.t_ref_src.rotation.angle().abs() < 1e-14, "{}", reg.name());
+        assert!(out.converged() && out.iterations <= 2, "{}: {out:?}", reg.name());
+    }
+}
+
+/// The H_ICP Huber rejection pays off against gross errors: 10 % of the reference points
+/// thrown 5–15 m away (spray, spurious returns). Same scans, same pairs, for both variants.
+#[test]
+fn huber_beats_plain_icp_with_outliers() {
+    let normal = rand_distr::Normal::new(0.0, 0.01).unwrap();
+    let mut worse = 0;
+    let (mut k_sum, mut h_sum) = (0.0, 0.0);
+    let trials = 20;
+    for seed in 0..trials {
+        let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
+        let source = structured_points(seed);
+        let truth = Isometry2::new(Vector2::new(-0.4, 0.1), 1.0f64.to_radians());
+        let mut moved = transform(&truth, &source);
+        for p in moved.iter_mut() {
+            p[0] += rng.sample(normal);
+            p[1] += rng.sample(normal);
+        }
+        let n_out = moved.len() / 10;
+        for p in moved.iter_mut().take(n_out * 10).step_by(10) {
+            let (r, a) = (rng.random_range(5.0..15.0), rng.random_range(0.0..std::f64::consts::TAU));
+            p[0] += r * f64::cos(a);
+            p[1] += r * f64::sin(a);
+        }
+        let (src, reference) = (Scan::from_cartesian(&source).unwrap(), Scan::from_cartesian(&moved).unwrap());
+        let err = |v: Variant| {
+            let reg = v.build(&VariantConfig::default()).unwrap();
+            let out = reg.register(&src, &reference, Isometry2::identity()).unwrap();
+            (out.t_ref_src.translation.vector - truth.translation.vector).norm()
+        };
+        let (k, h) = (err(Variant::KIcp), err(Variant::HIcp));
+        k_sum += k;
+        h_sum += h;
+        if h >= k {
+            worse += 1;
+        }
+    }
+    let (k_mean, h_mean) = (k_sum / trials as f64, h_sum / trials as f64);
+    eprintln!("mean translation error with 10% outliers: K_ICP {k_mean:.4} m, H_ICP {h_mean:.4} m");
+    // Stated margin: H_ICP's mean error is at most half of K_ICP's, and it is never worse.
+    assert!(h_mean < 0.5 * k_mean, "K_ICP {k_mean} m vs H_ICP {h_mean} m");
+    assert_eq!(worse, 0, "H_ICP was worse than K_ICP on {worse} of {trials} scans");
+}
+
+#[test]
+fn degenerate_and_tiny_scans_are_typed_errors() {
+    use icp_core::error::{Degeneracy, ScanRole};
+    use icp_core::IcpError;
+    let good = Scan::from_cartesian(&structured_points(3)).unwrap();
+    let reg = Variant::HdIcp.build(&VariantConfig::default()).unwrap();
+    let id = Isometry2::identity();
+    for n in 0..3 {
+        let tiny = Scan::from_cartesian(&structured_points(3)[..n]).unwrap();
+        assert!(matches!(
+            reg.register(&tiny, &good, id),
+            Err(IcpError::TooFewPoints { role: ScanRole::Source, .. })
+        ));
+    }
+    let line: Vec<[f64; 2]> = (0..50).map(|i| [i as f64 * 0.3, 5.0]).collect();
+    let corridor_wall = Scan::from_cartesian(&line).unwrap();
+    let all_points = VariantConfig { selection: icp_core::variants::SelectionKind::All, ..Default::default() };
+    let reg_all = Variant::HdIcp.build(&all_points).unwrap();
+    assert_eq!(
+        reg_all.register(&good, &corridor_wall, id).unwrap_err(),
+        IcpError::Degenerate { role: ScanRole::Reference, kind: Degeneracy::Collinear }
+    );
+    let same = Scan::from_cartesian(&[[4.0, 4.0]; 10]).unwrap();
+    assert_eq!(
+        reg_all.register(&same, &good, id).unwrap_err(),
+        IcpError::Degenerate { role: ScanRole::Source, kind: Degeneracy::Coincident }
+    );
+    let nan_init = Isometry2::new(Vector2::new(f64::NAN, 0.0), 0.0);
+    assert!(matches!(reg.register(&good, &good, nan_init), Err(IcpError::NonFinite { .. })));
+}
