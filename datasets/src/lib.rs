@@ -1,1 +1,12 @@
-pub fn x(){}
+//! Scan logs in, one [`Dataset`] out: the eval and core crates never see file formats.
+//!
+//! Loaders: [`marina`] (the paper's public MATLAB files).
+#![forbid(unsafe_code)]
+
+pub mod dataset;
+pub mod error;
+pub mod marina;
+pub mod matv5;
+
+pub use dataset::{Dataset, FileProvenance, Provenance, ReferencePose, ScanPair, SkippedPair};
+pub use error::DatasetError;

@@ -1,0 +1,63 @@
+//! Typed loader errors: each names the file and what is wrong with it.
+
+use std::path::PathBuf;
+
+use icp_core::IcpError;
+
+/// Errors of the dataset loaders.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not a MATLAB v5 file the reader understands (truncated, wrong magic, ...).
+    #[error("{path} is not a readable MATLAB v5 file: {reason}")]
+    MatParse { path: PathBuf, reason: String },
+    /// A variable the loader needs is absent.
+    #[error("{path} has no variable {name:?} (found: {found:?})")]
+    MissingVariable {
+        path: PathBuf,
+        name: String,
+        found: Vec<String>,
+    },
+    /// A variable holds something other than real double-precision numbers.
+    #[error("variable {name:?} in {path} is not a real double matrix")]
+    NotRealDouble { path: PathBuf, name: String },
+    /// A variable or a field has the wrong shape.
+    #[error("{name:?} in {path} has shape {got:?}, expected {expected}")]
+    Shape {
+        path: PathBuf,
+        name: String,
+        expected: String,
+        got: Vec<usize>,
+    },
+    /// A value that is not usable data (non-finite pose, negative range, ...).
+    #[error("{path}: {what}")]
+    BadValue { path: PathBuf, what: String },
+    /// A scan failed validation.
+    #[error("{path}: scan {scan}: {source}")]
+    Scan {
+        path: PathBuf,
+        scan: usize,
+        #[source]
+        source: IcpError,
+    },
+    /// The data directory was not found.
+    #[error("the {dataset} data was not found; looked in:\n{}\n{hint}", looked.iter().map(|p| format!("  - {}", p.display())).collect::<Vec<_>>().join("\n"))]
+    NotFound {
+        dataset: &'static str,
+        looked: Vec<PathBuf>,
+        hint: String,
+    },
+    /// A parameter of the loader is out of range.
+    #[error("invalid loader parameter {name} = {value}: {reason}")]
+    InvalidParameter {
+        name: &'static str,
+        value: f64,
+        reason: &'static str,
+    },
+}

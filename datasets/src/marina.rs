@@ -1,0 +1,233 @@
+//! The paper's public data: three MATLAB v5 files from the authors' repository
+//! `lukisp2/ICP_DATA_MARINA` (Naus & Marchel 2019).
+//!
+//! - `angles.mat`: `angles_baza`, 750 × 177, bearings in radians, column = scan;
+//! - `ranges.mat`: `ranges_baza`, 750 × 177, ranges in metres (NaN or 0 = no return);
+//! - `gps.mat`: `slam_pose`, 177 × 3: x, y (metres, local frame) and heading (radians).
+//!
+//! The files carry no timestamps: consecutive reference positions are about 1.24 m apart at
+//! about 1.2 m/s, so the nominal spacing is 1.0 s ([`MarinaOptions::dt_s`]).
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use icp_core::{BearingSense, Scan, SensorModel};
+use sha2::{Digest, Sha256};
+
+use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
+use crate::DatasetError;
+
+/// The three files, their variables and their pinned SHA-256 sums.
+pub const FILES: [(&str, &str, &str); 3] = [
+    ("angles.mat", "angles_baza", "893244923c82626288887bf69ff087475678dfc64092f0287743a9723b1f4ebe"),
+    ("ranges.mat", "ranges_baza", "0f4d0e127b3f07670a21470092aec0d50d4f3bc9940fef01f1b5306c8ffd04d0"),
+    ("gps.mat", "slam_pose", "0307f2699af59a325efe2967031f1355c988ae12a3d3936ff3a04f68122fea06"),
+];
+
+/// Environment variable naming the data directory.
+pub const DATA_DIR_ENV: &str = "ICP_DATA_DIR";
+
+/// How to get the files, for error messages.
+pub const FETCH_HINT: &str = "Fetch them with `scripts/fetch-marina.sh [DIR]` (checked against pinned sha256 sums), \
+then pass `--data-dir DIR` or set ICP_DATA_DIR=DIR.";
+
+/// Loader parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MarinaOptions {
+    /// Time between consecutive scans, seconds: the files have no timestamps (1.0 nominal).
+    pub dt_s: f64,
+    /// The sensor model (Scanse Sweep by default).
+    pub sensor: SensorModel,
+}
+
+impl Default for MarinaOptions {
+    fn default() -> Self {
+        Self { dt_s: 1.0, sensor: SensorModel::sweep() }
+    }
+}
+
+/// The directories searched for the marina files, in order: `--data-dir`, then
+/// `$ICP_DATA_DIR`, then `./datasets`; each either holds the files or a `marina/` folder
+/// holding them.
+pub fn candidate_dirs(cli_dir: Option<&Path>, env_dir: Option<&Path>) -> Vec<PathBuf> {
+    let mut roots: Vec<PathBuf> = Vec::new();
+    if let Some(d) = cli_dir {
+        roots.push(d.to_path_buf());
+    }
+    if let Some(d) = env_dir {
+        roots.push(d.to_path_buf());
+    }
+    roots.push(PathBuf::from("datasets"));
+    roots.into_iter().flat_map(|r| [r.join("marina"), r]).collect()
+}
+
+/// Finds the directory holding the three files (see [`candidate_dirs`]; `ICP_DATA_DIR` is read
+/// from the environment).
+pub fn find_data_dir(cli_dir: Option<&Path>) -> Result<PathBuf, DatasetError> {
+    let env_dir = std::env::var_os(DATA_DIR_ENV).map(PathBuf::from);
+    find_in(candidate_dirs(cli_dir, env_dir.as_deref()))
+}
+
+/// The first of `looked` that holds the three files.
+pub fn find_in(looked: Vec<PathBuf>) -> Result<PathBuf, DatasetError> {
+    looked
+        .iter()
+        .find(|d| FILES.iter().all(|(f, _, _)| d.join(f).is_file()))
+        .cloned()
+        .ok_or_else(|| DatasetError::NotFound {
+            dataset: "marina",
+            looked,
+            hint: format!("Expected angles.mat, ranges.mat and gps.mat. {FETCH_HINT}"),
+        })
+}
+
+/// Loads the marina dataset from `dir` (the folder holding the three files).
+pub fn load(dir: &Path, options: &MarinaOptions) -> Result<Dataset, DatasetError> {
+    let mut bytes = Vec::new();
+    let mut files = Vec::new();
+    for (name, _, pinned) in FILES {
+        let path = dir.join(name);
+        let data = std::fs::read(&path).map_err(|source| DatasetError::Io { path: path.clone(), source })?;
+        let sha256 = hex(&Sha256::digest(&data));
+        files.push(FileProvenance { matches_pinned: Some(sha256 == pinned), path, sha256 });
+        bytes.push(data);
+    }
+    let mut dataset = parse(
+        [(&files[0].path, &bytes[0][..]), (&files[1].path, &bytes[1][..]), (&files[2].path, &bytes[2][..])],
+        options,
+    )?;
+    dataset.provenance.files = files;
+    Ok(dataset)
+}
+
+/// Parses the three files (angles, ranges, gps, in that order), each given with the path used
+/// in error messages.
+pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Result<Dataset, DatasetError> {
+    if !(options.dt_s.is_finite() && options.dt_s > 0.0) {
+        return Err(DatasetError::InvalidParameter {
+            name: "dt_s",
+            value: options.dt_s,
+            reason: "must be finite and positive",
+        });
+    }
+    options.sensor.validate().map_err(|e| DatasetError::BadValue {
+        path: PathBuf::from("<sensor model>"),
+        what: e.to_string(),
+    })?;
+    let [(angles_path, angles), (ranges_path, ranges), (gps_path, gps)] = inputs;
+    let angles = read_matrix(angles_path, angles, FILES[0].1)?;
+    let ranges = read_matrix(ranges_path, ranges, FILES[1].1)?;
+    let pose = read_matrix(gps_path, gps, FILES[2].1)?;
+    if angles.rows != ranges.rows || angles.cols != ranges.cols {
+        return Err(DatasetError::Shape {
+            path: ranges_path.to_path_buf(),
+            name: FILES[1].1.into(),
+            expected: format!("{} x {} like {}", angles.rows, angles.cols, FILES[0].1),
+            got: vec![ranges.rows, ranges.cols],
+        });
+    }
+    let n_scans = angles.cols;
+    if pose.rows != n_scans || pose.cols != 3 {
+        return Err(DatasetError::Shape {
+            path: gps_path.to_path_buf(),
+            name: FILES[2].1.into(),
+            expected: format!("{n_scans} x 3 (one x, y, heading row per scan)"),
+            got: vec![pose.rows, pose.cols],
+        });
+    }
+    let mut scans = Vec::with_capacity(n_scans);
+    for k in 0..n_scans {
+        let scan = Scan::from_polar(ranges.column(k), angles.column(k))
+            .map_err(|source| DatasetError::Scan { path: ranges_path.to_path_buf(), scan: k, source })?;
+        scans.push(scan.with_timestamp(k as f64 * options.dt_s).map_err(|source| DatasetError::Scan {
+            path: ranges_path.to_path_buf(),
+            scan: k,
+            source,
+        })?);
+    }
+    let mut reference = Vec::with_capacity(n_scans);
+    for k in 0..n_scans {
+        let (x_m, y_m, heading_rad) = (pose.get(k, 0), pose.get(k, 1), pose.get(k, 2));
+        if !(x_m.is_finite() && y_m.is_finite() && heading_rad.is_finite()) {
+            return Err(DatasetError::BadValue {
+                path: gps_path.to_path_buf(),
+                what: format!("non-finite reference pose in row {k}: ({x_m}, {y_m}, {heading_rad})"),
+            });
+        }
+        reference.push(ReferencePose { x_m, y_m, heading_rad });
+    }
+    Ok(Dataset {
+        provenance: Provenance {
+            name: "marina".into(),
+            description: "Naus & Marchel (2019), Appl. Sci. 9(17) 3530: Gdynia yacht basin, Scanse Sweep, \
+                          GNSS RTK reference (public files from lukisp2/ICP_DATA_MARINA)"
+                .into(),
+            files: Vec::new(),
+        },
+        scans,
+        reference: Some(reference),
+        reference_heading_sense: REFERENCE_HEADING_SENSE,
+        dt_s: options.dt_s,
+        sensor: options.sensor,
+        bearing_sense: BEARING_SENSE,
+    })
+}
+
+/// The Sweep's bearings grow clockwise seen from above.
+pub const BEARING_SENSE: BearingSense = BearingSense::Clockwise;
+/// `slam_pose` headings grow clockwise seen from above.
+pub const REFERENCE_HEADING_SENSE: BearingSense = BearingSense::Clockwise;
+
+/// A real double matrix, column-major.
+struct Matrix {
+    rows: usize,
+    cols: usize,
+    data: Vec<f64>,
+}
+
+impl Matrix {
+    fn column(&self, c: usize) -> &[f64] {
+        &self.data[c * self.rows..(c + 1) * self.rows]
+    }
+    fn get(&self, r: usize, c: usize) -> f64 {
+        self.data[c * self.rows + r]
+    }
+}
+
+fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix, DatasetError> {
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|source| DatasetError::Io { path: path.to_path_buf(), source })?;
+    let parse_error = |reason: String| DatasetError::MatParse { path: path.to_path_buf(), reason };
+    if bytes.len() < 128 {
+        return Err(parse_error(format!("{} bytes, shorter than the 128-byte MATLAB v5 header", bytes.len())));
+    }
+    if !bytes.starts_with(b"MATLAB 5.0 MAT-file") {
+        return Err(parse_error("the header does not start with \"MATLAB 5.0 MAT-file\"".into()));
+    }
+    let file = matfile::MatFile::parse(&bytes[..]).map_err(|e| parse_error(e.to_string()))?;
+    let array = file.find_by_name(name).ok_or_else(|| DatasetError::MissingVariable {
+        path: path.to_path_buf(),
+        name: name.into(),
+        found: file.arrays().iter().map(|a| a.name().to_owned()).collect(),
+    })?;
+    let size = array.size().clone();
+    let data = match array.data() {
+        matfile::NumericData::Double { real, imag: None } => real.clone(),
+        _ => return Err(DatasetError::NotRealDouble { path: path.to_path_buf(), name: name.into() }),
+    };
+    if size.len() != 2 || size[0] * size[1] != data.len() {
+        return Err(DatasetError::Shape {
+            path: path.to_path_buf(),
+            name: name.into(),
+            expected: format!("a 2-D matrix holding its {} values", data.len()),
+            got: size,
+        });
+    }
+    Ok(Matrix { rows: size[0], cols: size[1], data })
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
