@@ -8,12 +8,25 @@ use serde::{Deserialize, Serialize};
 /// A reference pose of the vessel at one scan, in a local level frame.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ReferencePose {
-    /// Easting-like coordinate, metres.
+    /// First coordinate of the reference position, metres.
     pub x_m: f64,
-    /// Northing-like coordinate, metres.
+    /// Second coordinate of the reference position, metres.
     pub y_m: f64,
-    /// Heading as the source gives it, radians.
+    /// Heading as the source gives it, radians, growing in the dataset's
+    /// `reference_heading_sense`.
     pub heading_rad: f64,
+    /// Orientation of the scan frame in the `(x, y)` frame (radians, from `+x` towards `+y`),
+    /// when the reference is a true 2D pose of the scanner; `None` when position and heading
+    /// are not one rigid frame (the marina `slam_pose`: its positions do not turn with it).
+    pub scan_yaw_rad: Option<f64>,
+}
+
+impl ReferencePose {
+    /// The scanner pose `t_world_scan`, when the reference is a 2D pose of the scanner.
+    pub fn scan_pose(&self) -> Option<nalgebra::Isometry2<f64>> {
+        self.scan_yaw_rad
+            .map(|yaw| nalgebra::Isometry2::new(nalgebra::Vector2::new(self.x_m, self.y_m), yaw))
+    }
 }
 
 /// One input file and its checksum.

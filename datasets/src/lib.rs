@@ -7,6 +7,7 @@ pub mod dataset;
 pub mod error;
 pub mod marina;
 pub mod matv5;
+pub mod synthetic;
 
 pub use dataset::{Dataset, FileProvenance, Provenance, ReferencePose, ScanPair, SkippedPair};
 pub use error::DatasetError;

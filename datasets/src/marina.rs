@@ -154,7 +154,9 @@ pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Resul
                 what: format!("non-finite reference pose in row {k}: ({x_m}, {y_m}, {heading_rad})"),
             });
         }
-        reference.push(ReferencePose { x_m, y_m, heading_rad });
+        // The positions advance along +x whatever the heading (it turns by 85° and back while
+        // the track stays within 7° of +x), so they are not a rigid pose of the scanner.
+        reference.push(ReferencePose { x_m, y_m, heading_rad, scan_yaw_rad: None });
     }
     Ok(Dataset {
         provenance: Provenance {
@@ -173,9 +175,14 @@ pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Resul
     })
 }
 
-/// The Sweep's bearings grow clockwise seen from above.
+/// The sense of the scanner's bearings. The files only fix it *relative* to the reference
+/// heading: over the 175 pairs the registered rotation and the `slam_pose` heading change are
+/// anti-correlated (r ≈ −0.9, checked by a test), so bearings and heading grow in the same
+/// sense. We take both as clockwise, the navigational sense of a heading in [0, 2π) (it starts
+/// at 270°); were both counter-clockwise, every error statistic would be the same and only the
+/// sign of the reported turns would flip.
 pub const BEARING_SENSE: BearingSense = BearingSense::Clockwise;
-/// `slam_pose` headings grow clockwise seen from above.
+/// `slam_pose` headings grow clockwise seen from above (see [`BEARING_SENSE`]).
 pub const REFERENCE_HEADING_SENSE: BearingSense = BearingSense::Clockwise;
 
 /// A real double matrix, column-major.

@@ -1,0 +1,443 @@
+//! A deterministic synthetic harbour basin scanned by a simulated Scanse Sweep, with exact
+//! ground truth for every scan.
+//!
+//! The world is built around the vessel's track, like the Gdynia yacht basin of the paper:
+//! concrete quays on both sides (polylines following the track at 14 m to port and 11 m to
+//! starboard), finger piers on the starboard quay, moored hulls along the port quay, and end
+//! walls closing the basin; beyond 40 m the water returns nothing. The scanner casts one ray
+//! per beam against these segments and adds the sensor model's noise (eq. 8): the beam leaves
+//! at its nominal bearing plus `N(0, σ_α)` and the range gets `N(0, σ_r(r))`.
+//!
+//! Frames: the world is east-north (x east, y north); the scanner's `+x` is the bow and its
+//! bearings grow counter-clockwise; the reference heading is navigational (clockwise from
+//! north), so yaw `ψ = 90° − HDG`.
+
+use icp_core::{BearingSense, Scan, SensorModel};
+use nalgebra::{Isometry2, Point2, Vector2};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+use crate::dataset::{Dataset, Provenance, ReferencePose};
+use crate::DatasetError;
+
+/// A heading change spread over a range of scans (a smooth cosine ramp).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Turn {
+    /// Scan at which the turn starts.
+    pub start_scan: usize,
+    /// Scan at which it ends.
+    pub end_scan: usize,
+    /// Heading change, degrees, clockwise positive (to starboard).
+    pub heading_change_deg: f64,
+}
+
+/// The simulated scanner.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ScannerConfig {
+    /// Error model of the returns.
+    pub sensor: SensorModel,
+    /// When false the returns are exact (the sensor model still serves the weights).
+    pub noise: bool,
+    /// Largest range, metres; farther surfaces give no return.
+    pub max_range_m: f64,
+    /// Beams per revolution (750 gives the public data's 0.48° spacing).
+    pub beams_per_rev: usize,
+    /// Time of one revolution, seconds (matters only with motion distortion).
+    pub rotation_period_s: f64,
+    /// Probability that a beam that hit something returns nothing.
+    pub dropout_prob: f64,
+    /// Fraction of beams that return a spurious range (spray, water): uniform in 1 m to half
+    /// the maximum range.
+    pub gross_error_fraction: f64,
+    /// When true each beam is taken at its own time within the revolution, from the pose the
+    /// vessel has then, and reported as if from the scan's start pose.
+    pub motion_distortion: bool,
+}
+
+impl Default for ScannerConfig {
+    fn default() -> Self {
+        Self {
+            sensor: SensorModel::sweep(),
+            noise: true,
+            max_range_m: 40.0,
+            beams_per_rev: 750,
+            rotation_period_s: 0.2,
+            dropout_prob: 0.05,
+            gross_error_fraction: 0.005,
+            motion_distortion: false,
+        }
+    }
+}
+
+/// A synthetic run: the track, the timing and the scanner.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// Name, e.g. `paper`.
+    pub name: String,
+    /// Number of scans.
+    pub n_scans: usize,
+    /// Time between scans, seconds.
+    pub dt_s: f64,
+    /// Mean speed over ground, m/s.
+    pub speed_mps: f64,
+    /// Amplitude of a slow (30 s) speed oscillation, m/s.
+    pub speed_wobble_mps: f64,
+    /// Heading at the first scan, degrees (navigational).
+    pub initial_heading_deg: f64,
+    /// Amplitude of a short (8 s) yaw oscillation, degrees: a small hull in a chop.
+    pub yaw_wobble_deg: f64,
+    /// The turns.
+    pub turns: Vec<Turn>,
+    /// The scanner.
+    pub scanner: ScannerConfig,
+    /// Seed of the world's details and of the noise.
+    pub seed: u64,
+}
+
+impl Scenario {
+    /// The paper's run: 865 scans every 0.2 s at about 1.2 m/s (about 208 m), turning to
+    /// starboard by 85° over scans 220–365 and back to port by 68° over scans 720–825.
+    pub fn paper() -> Self {
+        Self {
+            name: "paper".into(),
+            n_scans: 865,
+            dt_s: 0.2,
+            speed_mps: 1.2,
+            speed_wobble_mps: 0.05,
+            initial_heading_deg: 270.0,
+            yaw_wobble_deg: 0.6,
+            turns: vec![
+                Turn { start_scan: 220, end_scan: 365, heading_change_deg: 85.0 },
+                Turn { start_scan: 720, end_scan: 825, heading_change_deg: -68.0 },
+            ],
+            scanner: ScannerConfig::default(),
+            seed: 2019,
+        }
+    }
+
+    /// Like the public marina files: the same track sampled about every 1 s (177 scans).
+    pub fn marina_like() -> Self {
+        let paper = Self::paper();
+        let scale = |k: usize| (k as f64 * 177.0 / 865.0).round() as usize;
+        Self {
+            name: "marina-like".into(),
+            n_scans: 177,
+            dt_s: 1.0,
+            turns: paper
+                .turns
+                .iter()
+                .map(|t| Turn { start_scan: scale(t.start_scan), end_scan: scale(t.end_scan), ..*t })
+                .collect(),
+            ..paper
+        }
+    }
+
+    /// A scenario by name: `paper` or `marina-like`.
+    pub fn by_name(name: &str) -> Option<Self> {
+        match name {
+            "paper" => Some(Self::paper()),
+            "marina-like" | "marina_like" => Some(Self::marina_like()),
+            _ => None,
+        }
+    }
+
+    fn validate(&self) -> Result<(), DatasetError> {
+        let s = &self.scanner;
+        let checks: [(&'static str, f64, bool); 8] = [
+            ("n_scans", self.n_scans as f64, self.n_scans >= 2),
+            ("dt_s", self.dt_s, self.dt_s.is_finite() && self.dt_s > 0.0),
+            ("speed_mps", self.speed_mps, self.speed_mps.is_finite() && self.speed_mps >= 0.0),
+            ("max_range_m", s.max_range_m, s.max_range_m.is_finite() && s.max_range_m > 1.0),
+            ("beams_per_rev", s.beams_per_rev as f64, s.beams_per_rev >= 3),
+            ("dropout_prob", s.dropout_prob, (0.0..=1.0).contains(&s.dropout_prob)),
+            ("gross_error_fraction", s.gross_error_fraction, (0.0..=1.0).contains(&s.gross_error_fraction)),
+            ("rotation_period_s", s.rotation_period_s, s.rotation_period_s.is_finite() && s.rotation_period_s > 0.0),
+        ];
+        for (name, value, ok) in checks {
+            if !ok {
+                return Err(DatasetError::InvalidParameter { name, value, reason: "out of range for a synthetic scenario" });
+            }
+        }
+        let finite = [self.speed_wobble_mps, self.initial_heading_deg, self.yaw_wobble_deg];
+        if finite.iter().any(|v| !v.is_finite()) || self.turns.iter().any(|t| !t.heading_change_deg.is_finite()) {
+            return Err(DatasetError::InvalidParameter {
+                name: "scenario",
+                value: f64::NAN,
+                reason: "every angle and speed must be finite",
+            });
+        }
+        if self.turns.iter().any(|t| t.end_scan <= t.start_scan) {
+            return Err(DatasetError::InvalidParameter {
+                name: "turns",
+                value: f64::NAN,
+                reason: "a turn must end after it starts",
+            });
+        }
+        s.sensor.validate().map_err(|e| DatasetError::BadValue {
+            path: "<scenario>".into(),
+            what: e.to_string(),
+        })
+    }
+
+    /// Navigational heading at time `t_s`, degrees (unwrapped).
+    fn heading_deg(&self, t_s: f64) -> f64 {
+        let mut h = self.initial_heading_deg + self.yaw_wobble_deg * (std::f64::consts::TAU * t_s / 8.0).sin();
+        for turn in &self.turns {
+            let (t0, t1) = (turn.start_scan as f64 * self.dt_s, turn.end_scan as f64 * self.dt_s);
+            let u = ((t_s - t0) / (t1 - t0)).clamp(0.0, 1.0);
+            h += turn.heading_change_deg * 0.5 * (1.0 - (std::f64::consts::PI * u).cos());
+        }
+        h
+    }
+
+    fn speed_mps(&self, t_s: f64) -> f64 {
+        self.speed_mps + self.speed_wobble_mps * (std::f64::consts::TAU * t_s / 30.0).sin()
+    }
+}
+
+/// The vessel's track: scanner poses sampled finely in time.
+struct Track {
+    step_s: f64,
+    poses: Vec<Isometry2<f64>>,
+}
+
+impl Track {
+    const SUBSTEPS: usize = 50;
+
+    fn new(scenario: &Scenario, duration_s: f64) -> Self {
+        let step_s = scenario.dt_s / Self::SUBSTEPS as f64;
+        let n = (duration_s / step_s).ceil() as usize + 2;
+        let yaw = |t: f64| (90.0 - scenario.heading_deg(t)).to_radians();
+        let mut p = Vector2::zeros();
+        let mut poses = Vec::with_capacity(n);
+        for i in 0..n {
+            let t = i as f64 * step_s;
+            poses.push(Isometry2::new(p, yaw(t)));
+            // Midpoint rule; the truth is whatever is integrated here, so it is exact by
+            // construction whatever the integration error.
+            let tm = t + 0.5 * step_s;
+            p += Vector2::new(yaw(tm).cos(), yaw(tm).sin()) * scenario.speed_mps(tm) * step_s;
+        }
+        Self { step_s, poses }
+    }
+
+    /// Pose at time `t_s`: exact at the samples, interpolated between them.
+    fn pose_at(&self, t_s: f64) -> Isometry2<f64> {
+        let x = t_s / self.step_s;
+        let i = (x.floor() as usize).min(self.poses.len() - 2);
+        let f = x - i as f64;
+        if f == 0.0 {
+            return self.poses[i];
+        }
+        self.poses[i].lerp_slerp(&self.poses[i + 1], f)
+    }
+}
+
+/// A straight piece of a wall or hull side, world frame, metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// One end.
+    pub a: Point2<f64>,
+    /// The other end.
+    pub b: Point2<f64>,
+}
+
+impl Segment {
+    /// Distance along the ray `o + t u` (|u| = 1) to the segment, if it is hit at `t > 0`.
+    fn hit(&self, o: &Point2<f64>, u: &Vector2<f64>) -> Option<f64> {
+        let e = self.b - self.a;
+        let denom = u.x * e.y - u.y * e.x;
+        if denom.abs() < 1e-15 {
+            return None;
+        }
+        let w = self.a - o;
+        let t = (w.x * e.y - w.y * e.x) / denom;
+        let s = (w.x * u.y - w.y * u.x) / denom;
+        (t > 1e-9 && (0.0..=1.0).contains(&s)).then_some(t)
+    }
+
+    /// Distance from `p` to the segment, metres.
+    pub fn distance_to(&self, p: &Point2<f64>) -> f64 {
+        let e = self.b - self.a;
+        let s = ((p - self.a).dot(&e) / e.norm_squared()).clamp(0.0, 1.0);
+        (self.a + e * s - p).norm()
+    }
+}
+
+/// Builds the basin around the track.
+fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) -> Vec<Segment> {
+    const PORT_QUAY_M: f64 = 14.0;
+    const STARBOARD_QUAY_M: f64 = 11.0;
+    const SAMPLE_M: f64 = 2.0;
+    const END_MARGIN_M: f64 = 15.0;
+    // Centre-line samples every ~2 m, extended straight beyond both ends.
+    let mut centre: Vec<(Point2<f64>, Vector2<f64>)> = Vec::new();
+    let mut since = f64::INFINITY;
+    let mut last = track.poses[0].translation.vector;
+    let n_used = ((duration_s / track.step_s).ceil() as usize + 1).min(track.poses.len());
+    for pose in &track.poses[..n_used] {
+        since += (pose.translation.vector - last).norm();
+        last = pose.translation.vector;
+        if since >= SAMPLE_M {
+            let dir = pose.rotation * Vector2::x();
+            centre.push((Point2::from(pose.translation.vector), dir));
+            since = 0.0;
+        }
+    }
+    let (p0, d0) = centre[0];
+    let (p1, d1) = *centre.last().expect("the track has samples");
+    centre.insert(0, (p0 - d0 * END_MARGIN_M, d0));
+    centre.push((p1 + d1 * END_MARGIN_M, d1));
+    let left = |(p, d): &(Point2<f64>, Vector2<f64>), off: f64| p + Vector2::new(-d.y, d.x) * off;
+    let port: Vec<Point2<f64>> = centre.iter().map(|c| left(c, PORT_QUAY_M)).collect();
+    let starboard: Vec<Point2<f64>> = centre.iter().map(|c| left(c, -STARBOARD_QUAY_M)).collect();
+    let mut segs = Vec::new();
+    for quay in [&port, &starboard] {
+        segs.extend(quay.windows(2).map(|w| Segment { a: w[0], b: w[1] }));
+    }
+    // End walls close the basin.
+    segs.push(Segment { a: port[0], b: starboard[0] });
+    segs.push(Segment { a: *port.last().expect("non-empty"), b: *starboard.last().expect("non-empty") });
+    // Finger piers off the starboard quay, moored hulls along the port quay.
+    let mut along = 0.0;
+    let mut next_pier = 10.0;
+    let mut next_hull = 6.0;
+    for w in centre.windows(2) {
+        along += (w[1].0 - w[0].0).norm();
+        let (p, d) = w[1];
+        let n = Vector2::new(-d.y, d.x);
+        if along >= next_pier {
+            segs.push(Segment { a: p - n * STARBOARD_QUAY_M, b: p - n * (STARBOARD_QUAY_M - 5.0) });
+            next_pier += 24.0 + rng.random_range(-4.0..4.0);
+        }
+        if along >= next_hull {
+            if rng.random_bool(0.8) {
+                let (beam, inner) = (rng.random_range(2.2..3.2), rng.random_range(6.5..8.0));
+                let (outer, half) = (PORT_QUAY_M - 0.5, 0.5 * beam);
+                let c = [
+                    p + n * outer - d * half,
+                    p + n * (inner + 1.0) - d * half,
+                    p + n * inner,
+                    p + n * (inner + 1.0) + d * half,
+                    p + n * outer + d * half,
+                ];
+                segs.extend(c.windows(2).map(|w| Segment { a: w[0], b: w[1] }));
+                segs.push(Segment { a: c[4], b: c[0] });
+            }
+            next_hull += 5.0 + rng.random_range(0.0..6.0);
+        }
+    }
+    segs
+}
+
+/// Casts the scanner's beams against a world.
+pub struct Scanner<'a> {
+    config: &'a ScannerConfig,
+    world: &'a [Segment],
+}
+
+impl<'a> Scanner<'a> {
+    /// A scanner in `world`.
+    pub fn new(config: &'a ScannerConfig, world: &'a [Segment]) -> Self {
+        Self { config, world }
+    }
+
+    /// One revolution starting at `t_s`, with the scanner at `pose_at(t)` (world frame):
+    /// parallel ranges (NaN = no return) and nominal bearings. `noise_rng` draws the sensor
+    /// noise and `event_rng` the beam phase, dropouts and gross errors, so a noise-free and a
+    /// noisy scan from the same event stream sample the same beams.
+    pub fn scan(
+        &self,
+        pose_at: &dyn Fn(f64) -> Isometry2<f64>,
+        t_s: f64,
+        noise_rng: &mut ChaCha8Rng,
+        event_rng: &mut ChaCha8Rng,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let sc = self.config;
+        let unit = Normal::new(0.0, 1.0).expect("unit normal");
+        let beam_step = std::f64::consts::TAU / sc.beams_per_rev as f64;
+        let start = pose_at(t_s);
+        let centre = Point2::from(start.translation.vector);
+        let reach = sc.max_range_m + if sc.motion_distortion { 2.0 } else { 0.0 };
+        let near: Vec<&Segment> = self.world.iter().filter(|s| s.distance_to(&centre) <= reach).collect();
+        // Each revolution starts at a random fraction of a beam, as a free-running scanner does.
+        let phase = event_rng.random_range(0.0..beam_step);
+        let mut ranges = Vec::with_capacity(sc.beams_per_rev);
+        let mut bearings = Vec::with_capacity(sc.beams_per_rev);
+        for j in 0..sc.beams_per_rev {
+            let bearing = phase + j as f64 * beam_step;
+            let pose = if sc.motion_distortion {
+                pose_at(t_s + sc.rotation_period_s * j as f64 / sc.beams_per_rev as f64)
+            } else {
+                start
+            };
+            let (n_alpha, n_range) = (unit.sample(noise_rng), unit.sample(noise_rng));
+            let alpha_err = if sc.noise { sc.sensor.sigma_alpha_rad * n_alpha } else { 0.0 };
+            let dir = pose.rotation * Vector2::new((bearing + alpha_err).cos(), (bearing + alpha_err).sin());
+            let origin = Point2::from(pose.translation.vector);
+            let hit = near.iter().filter_map(|s| s.hit(&origin, &dir)).fold(f64::INFINITY, f64::min);
+            let mut r = f64::NAN;
+            if hit <= sc.max_range_m && !event_rng.random_bool(sc.dropout_prob) {
+                r = hit + if sc.noise { sc.sensor.sigma_r_m(hit) * n_range } else { 0.0 };
+            }
+            if event_rng.random_bool(sc.gross_error_fraction) {
+                r = event_rng.random_range(1.0..0.5 * sc.max_range_m);
+            }
+            ranges.push(if r > 0.0 { r } else { f64::NAN });
+            bearings.push(bearing);
+        }
+        (ranges, bearings)
+    }
+}
+
+/// Generates the scenario's dataset.
+pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
+    scenario.validate()?;
+    let sc = &scenario.scanner;
+    let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + sc.rotation_period_s;
+    let track = Track::new(scenario, duration_s);
+    let mut event_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
+    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x5eed_0f_5e45);
+    let world = build_world(&track, duration_s, &mut event_rng);
+    let scanner = Scanner::new(sc, &world);
+    let pose_at = |t: f64| track.pose_at(t);
+    let mut scans = Vec::with_capacity(scenario.n_scans);
+    let mut reference = Vec::with_capacity(scenario.n_scans);
+    for k in 0..scenario.n_scans {
+        let t_k = k as f64 * scenario.dt_s;
+        let (ranges, bearings) = scanner.scan(&pose_at, t_k, &mut noise_rng, &mut event_rng);
+        let scan = Scan::from_polar(&ranges, &bearings)
+            .and_then(|s| s.with_timestamp(t_k))
+            .map_err(|source| DatasetError::Scan { path: "<synthetic>".into(), scan: k, source })?;
+        scans.push(scan);
+        let pose_k = track.pose_at(t_k);
+        let yaw = pose_k.rotation.angle();
+        reference.push(ReferencePose {
+            x_m: pose_k.translation.x,
+            y_m: pose_k.translation.y,
+            heading_rad: icp_core::motion::wrap_360(90.0 - yaw.to_degrees()).to_radians(),
+            scan_yaw_rad: Some(yaw),
+        });
+    }
+    Ok(Dataset {
+        provenance: Provenance {
+            name: format!("synthetic:{}", scenario.name),
+            description: format!(
+                "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}",
+                scenario.name, scenario.n_scans, scenario.dt_s, scenario.speed_mps, scenario.seed
+            ),
+            files: Vec::new(),
+        },
+        scans,
+        reference: Some(reference),
+        reference_heading_sense: BearingSense::Clockwise,
+        dt_s: scenario.dt_s,
+        sensor: sc.sensor,
+        bearing_sense: BearingSense::CounterClockwise,
+    })
+}

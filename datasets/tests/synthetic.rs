@@ -1,0 +1,157 @@
+//! The synthetic harbour: determinism, the paper scenario's shape, the noise it draws, and
+//! ICP recovering its exact ground truth.
+
+use datasets::synthetic::{generate, ScannerConfig, Scanner, Scenario, Segment, Turn};
+use datasets::DatasetError;
+use icp_core::variants::{Variant, VariantConfig};
+use icp_core::{SensorModel, Termination};
+use nalgebra::{Isometry2, Point2, Vector2};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+fn short(n_scans: usize) -> Scenario {
+    Scenario {
+        n_scans,
+        turns: vec![Turn { start_scan: 5, end_scan: n_scans - 5, heading_change_deg: 20.0 }],
+        ..Scenario::paper()
+    }
+}
+
+#[test]
+fn generation_is_deterministic_and_seeded() {
+    let a = generate(&short(12)).unwrap();
+    let b = generate(&short(12)).unwrap();
+    assert_eq!(a.scans, b.scans);
+    assert_eq!(a.reference, b.reference);
+    let c = generate(&Scenario { seed: 7, ..short(12) }).unwrap();
+    assert_ne!(a.scans, c.scans);
+}
+
+#[test]
+fn paper_scenario_has_the_papers_shape() {
+    let ds = generate(&Scenario::paper()).unwrap();
+    assert_eq!(ds.scans.len(), 865);
+    assert_eq!(ds.dt_s, 0.2);
+    let r = ds.reference.as_ref().unwrap();
+    let length: f64 = r.windows(2).map(|w| (w[1].x_m - w[0].x_m).hypot(w[1].y_m - w[0].y_m)).sum();
+    assert!((200.0..215.0).contains(&length), "track length {length} m");
+    let hdg = |k: usize| r[k].heading_rad.to_degrees();
+    // Turns: +85° over scans 220-365, -68° over 720-825 (plus a 0.6° wobble).
+    assert!((icp_core::motion::wrap_deg(hdg(365) - hdg(220)) - 85.0).abs() < 1.5);
+    assert!((icp_core::motion::wrap_deg(hdg(825) - hdg(720)) + 68.0).abs() < 1.5);
+    assert!((icp_core::motion::wrap_deg(hdg(200) - hdg(20))).abs() < 1.5);
+    let counts: Vec<usize> = ds.scans.iter().map(|s| s.len()).collect();
+    let mean = counts.iter().sum::<usize>() as f64 / counts.len() as f64;
+    // Measured: 580-704 returns per scan, like the public data's 141-706.
+    assert!((550.0..720.0).contains(&mean), "mean returns {mean}");
+    assert_eq!(ds.consecutive_pairs().0.len(), 864);
+}
+
+#[test]
+fn marina_like_scenario_samples_the_same_track_every_second() {
+    let ds = generate(&Scenario::marina_like()).unwrap();
+    assert_eq!(ds.scans.len(), 177);
+    let r = ds.reference.as_ref().unwrap();
+    let step = (r[11].x_m - r[10].x_m).hypot(r[11].y_m - r[10].y_m);
+    assert!((1.1..1.3).contains(&step), "step {step} m");
+}
+
+/// A static square room, scanned many times: the scatter of the returns about the true walls
+/// must fit the configured σ_r and σ_α. Along the wall normal the variance of a return is
+/// eq. 9: `k² r² cos²φ + σ_α² r² sin²φ` (φ between beam and normal), linear in (k², σ_α²).
+#[test]
+fn generated_noise_fits_the_sensor_model() {
+    let half = 15.0;
+    let c = [[-half, -half], [half, -half], [half, half], [-half, half]].map(|[x, y]| Point2::new(x, y));
+    let world: Vec<Segment> = (0..4).map(|i| Segment { a: c[i], b: c[(i + 1) % 4] }).collect();
+    let sensor = SensorModel { sigma_r_const_m: 0.0, sigma_r_per_m: 0.004258, sigma_alpha_rad: 0.5f64.to_radians() };
+    let config = ScannerConfig { sensor, dropout_prob: 0.0, gross_error_fraction: 0.0, ..ScannerConfig::default() };
+    let scanner = Scanner::new(&config, &world);
+    let pose = Isometry2::new(Vector2::new(2.0, -3.0), 0.3);
+    let (mut noise, mut events) = (ChaCha8Rng::seed_from_u64(1), ChaCha8Rng::seed_from_u64(2));
+    // Normal equations of d² = a·x1 + b·x2, x1 = r² cos²φ, x2 = r² sin²φ.
+    let (mut s11, mut s12, mut s22, mut t1, mut t2) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    let mut n = 0;
+    for _ in 0..300 {
+        let (ranges, bearings) = scanner.scan(&|_| pose, 0.0, &mut noise, &mut events);
+        for (&r, &a) in ranges.iter().zip(&bearings) {
+            let u = pose.rotation * Vector2::new(a.cos(), a.sin());
+            let p = pose * Point2::new(r * a.cos(), r * a.sin());
+            // The wall hit: the one nearest the return; keep away from the corners.
+            let (wall, d) = world
+                .iter()
+                .map(|s| (s, s.distance_to(&p)))
+                .min_by(|x, y| x.1.total_cmp(&y.1))
+                .unwrap();
+            if p.x.abs() > half - 1.0 && p.y.abs() > half - 1.0 {
+                continue;
+            }
+            let e = (wall.b - wall.a).normalize();
+            let cos_phi = (u.x * -e.y + u.y * e.x).abs();
+            let (x1, x2) = (r * r * cos_phi * cos_phi, r * r * (1.0 - cos_phi * cos_phi));
+            s11 += x1 * x1;
+            s12 += x1 * x2;
+            s22 += x2 * x2;
+            t1 += x1 * d * d;
+            t2 += x2 * d * d;
+            n += 1;
+        }
+    }
+    let det = s11 * s22 - s12 * s12;
+    let k_sq = (t1 * s22 - t2 * s12) / det;
+    let alpha_sq = (s11 * t2 - s12 * t1) / det;
+    let (k, alpha_deg) = (k_sq.sqrt(), alpha_sq.sqrt().to_degrees());
+    eprintln!("fitted from {n} returns: k = {k:.6} m/m, sigma_alpha = {alpha_deg:.4} deg");
+    // 225,000 returns: the fitted σ are within about 1 % of the truth by sampling error; 4 %
+    // still catches a σ_α off by the degree/radian confusion or a σ_r missing its range factor.
+    assert!((k / 0.004258 - 1.0).abs() < 0.04, "k = {k}");
+    assert!((alpha_deg / 0.5 - 1.0).abs() < 0.04, "sigma_alpha = {alpha_deg} deg");
+}
+
+/// Noise-free returns from a dense scanner (0.025° beams): HD_ICP recovers every step of the
+/// exact ground truth to sub-millimetre. (At the Sweep's 0.48° the walls are sampled at
+/// different places in consecutive scans and point-to-point ICP is limited to about 1.5 cm by
+/// that resampling, noise or not.)
+#[test]
+fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
+    let scenario = Scenario {
+        scanner: ScannerConfig {
+            noise: false,
+            dropout_prob: 0.0,
+            gross_error_fraction: 0.0,
+            beams_per_rev: 14_400,
+            ..ScannerConfig::default()
+        },
+        ..short(16)
+    };
+    let ds = generate(&scenario).unwrap();
+    let r = ds.reference.as_ref().unwrap();
+    let config = VariantConfig {
+        termination: Termination { max_iterations: 500, mean_dist_change_eps_m: 1e-10 },
+        ..VariantConfig::default()
+    };
+    let hd = Variant::HdIcp.build(&config).unwrap();
+    for pair in ds.consecutive_pairs().0 {
+        let out = hd.register(&ds.scans[pair.source], &ds.scans[pair.reference], Isometry2::identity()).unwrap();
+        let truth = (r[pair.source].scan_pose().unwrap().inverse() * r[pair.reference].scan_pose().unwrap()).inverse();
+        let dt = (out.t_ref_src.translation.vector - truth.translation.vector).norm();
+        let dr = (out.t_ref_src.rotation.angle() - truth.rotation.angle()).abs().to_degrees();
+        assert!(dt < 1e-3, "pair {pair:?}: translation error {dt} m");
+        assert!(dr < 0.01, "pair {pair:?}: rotation error {dr} deg");
+    }
+}
+
+#[test]
+fn bad_scenarios_are_refused() {
+    let bad = [
+        Scenario { n_scans: 1, ..Scenario::paper() },
+        Scenario { dt_s: 0.0, ..Scenario::paper() },
+        Scenario { speed_mps: f64::NAN, ..Scenario::paper() },
+        Scenario { turns: vec![Turn { start_scan: 5, end_scan: 5, heading_change_deg: 1.0 }], ..Scenario::paper() },
+        Scenario { scanner: ScannerConfig { dropout_prob: 1.5, ..ScannerConfig::default() }, ..Scenario::paper() },
+        Scenario { scanner: ScannerConfig { beams_per_rev: 2, ..ScannerConfig::default() }, ..Scenario::paper() },
+    ];
+    for s in bad {
+        assert!(matches!(generate(&s), Err(DatasetError::InvalidParameter { .. } | DatasetError::BadValue { .. })));
+    }
+}
