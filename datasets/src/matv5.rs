@@ -16,8 +16,16 @@ pub fn write_doubles(vars: &[(&str, usize, usize, &[f64])]) -> Option<Vec<u8>> {
             return None;
         }
         let mut body = Vec::new();
-        element(&mut body, 6, &[6u32.to_le_bytes(), 0u32.to_le_bytes()].concat()); // flags: double
-        let dims = [i32::try_from(rows).ok()?.to_le_bytes(), i32::try_from(cols).ok()?.to_le_bytes()].concat();
+        element(
+            &mut body,
+            6,
+            &[6u32.to_le_bytes(), 0u32.to_le_bytes()].concat(),
+        ); // flags: double
+        let dims = [
+            i32::try_from(rows).ok()?.to_le_bytes(),
+            i32::try_from(cols).ok()?.to_le_bytes(),
+        ]
+        .concat();
         element(&mut body, 5, &dims);
         element(&mut body, 1, name.as_bytes());
         let real: Vec<u8> = data.iter().flat_map(|v| v.to_le_bytes()).collect();

@@ -112,8 +112,16 @@ impl Scenario {
             initial_heading_deg: 270.0,
             yaw_wobble_deg: 0.6,
             turns: vec![
-                Turn { start_scan: 220, end_scan: 365, heading_change_deg: 85.0 },
-                Turn { start_scan: 720, end_scan: 825, heading_change_deg: -68.0 },
+                Turn {
+                    start_scan: 220,
+                    end_scan: 365,
+                    heading_change_deg: 85.0,
+                },
+                Turn {
+                    start_scan: 720,
+                    end_scan: 825,
+                    heading_change_deg: -68.0,
+                },
             ],
             scanner: ScannerConfig::default(),
             seed: 2019,
@@ -131,7 +139,11 @@ impl Scenario {
             turns: paper
                 .turns
                 .iter()
-                .map(|t| Turn { start_scan: scale(t.start_scan), end_scan: scale(t.end_scan), ..*t })
+                .map(|t| Turn {
+                    start_scan: scale(t.start_scan),
+                    end_scan: scale(t.end_scan),
+                    ..*t
+                })
                 .collect(),
             ..paper
         }
@@ -151,20 +163,54 @@ impl Scenario {
         let checks: [(&'static str, f64, bool); 8] = [
             ("n_scans", self.n_scans as f64, self.n_scans >= 2),
             ("dt_s", self.dt_s, self.dt_s.is_finite() && self.dt_s > 0.0),
-            ("speed_mps", self.speed_mps, self.speed_mps.is_finite() && self.speed_mps >= 0.0),
-            ("max_range_m", s.max_range_m, s.max_range_m.is_finite() && s.max_range_m > 1.0),
-            ("beams_per_rev", s.beams_per_rev as f64, s.beams_per_rev >= 3),
-            ("dropout_prob", s.dropout_prob, (0.0..=1.0).contains(&s.dropout_prob)),
-            ("gross_error_fraction", s.gross_error_fraction, (0.0..=1.0).contains(&s.gross_error_fraction)),
-            ("rotation_period_s", s.rotation_period_s, s.rotation_period_s.is_finite() && s.rotation_period_s > 0.0),
+            (
+                "speed_mps",
+                self.speed_mps,
+                self.speed_mps.is_finite() && self.speed_mps >= 0.0,
+            ),
+            (
+                "max_range_m",
+                s.max_range_m,
+                s.max_range_m.is_finite() && s.max_range_m > 1.0,
+            ),
+            (
+                "beams_per_rev",
+                s.beams_per_rev as f64,
+                s.beams_per_rev >= 3,
+            ),
+            (
+                "dropout_prob",
+                s.dropout_prob,
+                (0.0..=1.0).contains(&s.dropout_prob),
+            ),
+            (
+                "gross_error_fraction",
+                s.gross_error_fraction,
+                (0.0..=1.0).contains(&s.gross_error_fraction),
+            ),
+            (
+                "rotation_period_s",
+                s.rotation_period_s,
+                s.rotation_period_s.is_finite() && s.rotation_period_s > 0.0,
+            ),
         ];
         for (name, value, ok) in checks {
             if !ok {
-                return Err(DatasetError::InvalidParameter { name, value, reason: "out of range for a synthetic scenario" });
+                return Err(DatasetError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "out of range for a synthetic scenario",
+                });
             }
         }
-        let finite = [self.speed_wobble_mps, self.initial_heading_deg, self.yaw_wobble_deg];
-        if finite.iter().any(|v| !v.is_finite()) || self.turns.iter().any(|t| !t.heading_change_deg.is_finite()) {
+        let finite = [
+            self.speed_wobble_mps,
+            self.initial_heading_deg,
+            self.yaw_wobble_deg,
+        ];
+        if finite.iter().any(|v| !v.is_finite())
+            || self.turns.iter().any(|t| !t.heading_change_deg.is_finite())
+        {
             return Err(DatasetError::InvalidParameter {
                 name: "scenario",
                 value: f64::NAN,
@@ -186,9 +232,13 @@ impl Scenario {
 
     /// Navigational heading at time `t_s`, degrees (unwrapped).
     fn heading_deg(&self, t_s: f64) -> f64 {
-        let mut h = self.initial_heading_deg + self.yaw_wobble_deg * (std::f64::consts::TAU * t_s / 8.0).sin();
+        let mut h = self.initial_heading_deg
+            + self.yaw_wobble_deg * (std::f64::consts::TAU * t_s / 8.0).sin();
         for turn in &self.turns {
-            let (t0, t1) = (turn.start_scan as f64 * self.dt_s, turn.end_scan as f64 * self.dt_s);
+            let (t0, t1) = (
+                turn.start_scan as f64 * self.dt_s,
+                turn.end_scan as f64 * self.dt_s,
+            );
             let u = ((t_s - t0) / (t1 - t0)).clamp(0.0, 1.0);
             h += turn.heading_change_deg * 0.5 * (1.0 - (std::f64::consts::PI * u).cos());
         }
@@ -301,8 +351,14 @@ fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) -> Vec<Segm
         segs.extend(quay.windows(2).map(|w| Segment { a: w[0], b: w[1] }));
     }
     // End walls close the basin.
-    segs.push(Segment { a: port[0], b: starboard[0] });
-    segs.push(Segment { a: *port.last().expect("non-empty"), b: *starboard.last().expect("non-empty") });
+    segs.push(Segment {
+        a: port[0],
+        b: starboard[0],
+    });
+    segs.push(Segment {
+        a: *port.last().expect("non-empty"),
+        b: *starboard.last().expect("non-empty"),
+    });
     // Finger piers off the starboard quay, moored hulls along the port quay.
     let mut along = 0.0;
     let mut next_pier = 10.0;
@@ -312,7 +368,10 @@ fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) -> Vec<Segm
         let (p, d) = w[1];
         let n = Vector2::new(-d.y, d.x);
         if along >= next_pier {
-            segs.push(Segment { a: p - n * STARBOARD_QUAY_M, b: p - n * (STARBOARD_QUAY_M - 5.0) });
+            segs.push(Segment {
+                a: p - n * STARBOARD_QUAY_M,
+                b: p - n * (STARBOARD_QUAY_M - 5.0),
+            });
             next_pier += 24.0 + rng.random_range(-4.0..4.0);
         }
         if along >= next_hull {
@@ -364,7 +423,11 @@ impl<'a> Scanner<'a> {
         let start = pose_at(t_s);
         let centre = Point2::from(start.translation.vector);
         let reach = sc.max_range_m + if sc.motion_distortion { 2.0 } else { 0.0 };
-        let near: Vec<&Segment> = self.world.iter().filter(|s| s.distance_to(&centre) <= reach).collect();
+        let near: Vec<&Segment> = self
+            .world
+            .iter()
+            .filter(|s| s.distance_to(&centre) <= reach)
+            .collect();
         // Each revolution starts at a random fraction of a beam, as a free-running scanner does.
         let phase = event_rng.random_range(0.0..beam_step);
         let mut ranges = Vec::with_capacity(sc.beams_per_rev);
@@ -377,13 +440,26 @@ impl<'a> Scanner<'a> {
                 start
             };
             let (n_alpha, n_range) = (unit.sample(noise_rng), unit.sample(noise_rng));
-            let alpha_err = if sc.noise { sc.sensor.sigma_alpha_rad * n_alpha } else { 0.0 };
-            let dir = pose.rotation * Vector2::new((bearing + alpha_err).cos(), (bearing + alpha_err).sin());
+            let alpha_err = if sc.noise {
+                sc.sensor.sigma_alpha_rad * n_alpha
+            } else {
+                0.0
+            };
+            let dir = pose.rotation
+                * Vector2::new((bearing + alpha_err).cos(), (bearing + alpha_err).sin());
             let origin = Point2::from(pose.translation.vector);
-            let hit = near.iter().filter_map(|s| s.hit(&origin, &dir)).fold(f64::INFINITY, f64::min);
+            let hit = near
+                .iter()
+                .filter_map(|s| s.hit(&origin, &dir))
+                .fold(f64::INFINITY, f64::min);
             let mut r = f64::NAN;
             if hit <= sc.max_range_m && !event_rng.random_bool(sc.dropout_prob) {
-                r = hit + if sc.noise { sc.sensor.sigma_r_m(hit) * n_range } else { 0.0 };
+                r = hit
+                    + if sc.noise {
+                        sc.sensor.sigma_r_m(hit) * n_range
+                    } else {
+                        0.0
+                    };
             }
             if event_rng.random_bool(sc.gross_error_fraction) {
                 r = event_rng.random_range(1.0..0.5 * sc.max_range_m);
@@ -402,7 +478,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + sc.rotation_period_s;
     let track = Track::new(scenario, duration_s);
     let mut event_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
-    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x5eed_0f_5e45);
+    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x005e_ed0f_5e45);
     let world = build_world(&track, duration_s, &mut event_rng);
     let scanner = Scanner::new(sc, &world);
     let pose_at = |t: f64| track.pose_at(t);
@@ -413,7 +489,11 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         let (ranges, bearings) = scanner.scan(&pose_at, t_k, &mut noise_rng, &mut event_rng);
         let scan = Scan::from_polar(&ranges, &bearings)
             .and_then(|s| s.with_timestamp(t_k))
-            .map_err(|source| DatasetError::Scan { path: "<synthetic>".into(), scan: k, source })?;
+            .map_err(|source| DatasetError::Scan {
+                path: "<synthetic>".into(),
+                scan: k,
+                source,
+            })?;
         scans.push(scan);
         let pose_k = track.pose_at(t_k);
         let yaw = pose_k.rotation.angle();

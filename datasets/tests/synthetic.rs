@@ -1,7 +1,7 @@
 //! The synthetic harbour: determinism, the paper scenario's shape, the noise it draws, and
 //! ICP recovering its exact ground truth.
 
-use datasets::synthetic::{generate, ScannerConfig, Scanner, Scenario, Segment, Turn};
+use datasets::synthetic::{generate, Scanner, ScannerConfig, Scenario, Segment, Turn};
 use datasets::DatasetError;
 use icp_core::variants::{Variant, VariantConfig};
 use icp_core::{SensorModel, Termination};
@@ -12,7 +12,11 @@ use rand_chacha::ChaCha8Rng;
 fn short(n_scans: usize) -> Scenario {
     Scenario {
         n_scans,
-        turns: vec![Turn { start_scan: 5, end_scan: n_scans - 5, heading_change_deg: 20.0 }],
+        turns: vec![Turn {
+            start_scan: 5,
+            end_scan: n_scans - 5,
+            heading_change_deg: 20.0,
+        }],
         ..Scenario::paper()
     }
 }
@@ -23,7 +27,11 @@ fn generation_is_deterministic_and_seeded() {
     let b = generate(&short(12)).unwrap();
     assert_eq!(a.scans, b.scans);
     assert_eq!(a.reference, b.reference);
-    let c = generate(&Scenario { seed: 7, ..short(12) }).unwrap();
+    let c = generate(&Scenario {
+        seed: 7,
+        ..short(12)
+    })
+    .unwrap();
     assert_ne!(a.scans, c.scans);
 }
 
@@ -33,7 +41,10 @@ fn paper_scenario_has_the_papers_shape() {
     assert_eq!(ds.scans.len(), 865);
     assert_eq!(ds.dt_s, 0.2);
     let r = ds.reference.as_ref().unwrap();
-    let length: f64 = r.windows(2).map(|w| (w[1].x_m - w[0].x_m).hypot(w[1].y_m - w[0].y_m)).sum();
+    let length: f64 = r
+        .windows(2)
+        .map(|w| (w[1].x_m - w[0].x_m).hypot(w[1].y_m - w[0].y_m))
+        .sum();
     assert!((200.0..215.0).contains(&length), "track length {length} m");
     let hdg = |k: usize| r[k].heading_rad.to_degrees();
     // Turns: +85° over scans 220-365, -68° over 720-825 (plus a 0.6° wobble).
@@ -62,10 +73,25 @@ fn marina_like_scenario_samples_the_same_track_every_second() {
 #[test]
 fn generated_noise_fits_the_sensor_model() {
     let half = 15.0;
-    let c = [[-half, -half], [half, -half], [half, half], [-half, half]].map(|[x, y]| Point2::new(x, y));
-    let world: Vec<Segment> = (0..4).map(|i| Segment { a: c[i], b: c[(i + 1) % 4] }).collect();
-    let sensor = SensorModel { sigma_r_const_m: 0.0, sigma_r_per_m: 0.004258, sigma_alpha_rad: 0.5f64.to_radians() };
-    let config = ScannerConfig { sensor, dropout_prob: 0.0, gross_error_fraction: 0.0, ..ScannerConfig::default() };
+    let c = [[-half, -half], [half, -half], [half, half], [-half, half]]
+        .map(|[x, y]| Point2::new(x, y));
+    let world: Vec<Segment> = (0..4)
+        .map(|i| Segment {
+            a: c[i],
+            b: c[(i + 1) % 4],
+        })
+        .collect();
+    let sensor = SensorModel {
+        sigma_r_const_m: 0.0,
+        sigma_r_per_m: 0.004258,
+        sigma_alpha_rad: 0.5f64.to_radians(),
+    };
+    let config = ScannerConfig {
+        sensor,
+        dropout_prob: 0.0,
+        gross_error_fraction: 0.0,
+        ..ScannerConfig::default()
+    };
     let scanner = Scanner::new(&config, &world);
     let pose = Isometry2::new(Vector2::new(2.0, -3.0), 0.3);
     let (mut noise, mut events) = (ChaCha8Rng::seed_from_u64(1), ChaCha8Rng::seed_from_u64(2));
@@ -105,7 +131,10 @@ fn generated_noise_fits_the_sensor_model() {
     // 225,000 returns: the fitted σ are within about 1 % of the truth by sampling error; 4 %
     // still catches a σ_α off by the degree/radian confusion or a σ_r missing its range factor.
     assert!((k / 0.004258 - 1.0).abs() < 0.04, "k = {k}");
-    assert!((alpha_deg / 0.5 - 1.0).abs() < 0.04, "sigma_alpha = {alpha_deg} deg");
+    assert!(
+        (alpha_deg / 0.5 - 1.0).abs() < 0.04,
+        "sigma_alpha = {alpha_deg} deg"
+    );
 }
 
 /// Noise-free returns from a dense scanner (0.025° beams): HD_ICP recovers every step of the
@@ -127,15 +156,28 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
     let ds = generate(&scenario).unwrap();
     let r = ds.reference.as_ref().unwrap();
     let config = VariantConfig {
-        termination: Termination { max_iterations: 500, mean_dist_change_eps_m: 1e-10 },
+        termination: Termination {
+            max_iterations: 500,
+            mean_dist_change_eps_m: 1e-10,
+        },
         ..VariantConfig::default()
     };
     let hd = Variant::HdIcp.build(&config).unwrap();
     for pair in ds.consecutive_pairs().0 {
-        let out = hd.register(&ds.scans[pair.source], &ds.scans[pair.reference], Isometry2::identity()).unwrap();
-        let truth = (r[pair.source].scan_pose().unwrap().inverse() * r[pair.reference].scan_pose().unwrap()).inverse();
+        let out = hd
+            .register(
+                &ds.scans[pair.source],
+                &ds.scans[pair.reference],
+                Isometry2::identity(),
+            )
+            .unwrap();
+        let truth = (r[pair.source].scan_pose().unwrap().inverse()
+            * r[pair.reference].scan_pose().unwrap())
+        .inverse();
         let dt = (out.t_ref_src.translation.vector - truth.translation.vector).norm();
-        let dr = (out.t_ref_src.rotation.angle() - truth.rotation.angle()).abs().to_degrees();
+        let dr = (out.t_ref_src.rotation.angle() - truth.rotation.angle())
+            .abs()
+            .to_degrees();
         assert!(dt < 1e-3, "pair {pair:?}: translation error {dt} m");
         assert!(dr < 0.01, "pair {pair:?}: rotation error {dr} deg");
     }
@@ -144,14 +186,45 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
 #[test]
 fn bad_scenarios_are_refused() {
     let bad = [
-        Scenario { n_scans: 1, ..Scenario::paper() },
-        Scenario { dt_s: 0.0, ..Scenario::paper() },
-        Scenario { speed_mps: f64::NAN, ..Scenario::paper() },
-        Scenario { turns: vec![Turn { start_scan: 5, end_scan: 5, heading_change_deg: 1.0 }], ..Scenario::paper() },
-        Scenario { scanner: ScannerConfig { dropout_prob: 1.5, ..ScannerConfig::default() }, ..Scenario::paper() },
-        Scenario { scanner: ScannerConfig { beams_per_rev: 2, ..ScannerConfig::default() }, ..Scenario::paper() },
+        Scenario {
+            n_scans: 1,
+            ..Scenario::paper()
+        },
+        Scenario {
+            dt_s: 0.0,
+            ..Scenario::paper()
+        },
+        Scenario {
+            speed_mps: f64::NAN,
+            ..Scenario::paper()
+        },
+        Scenario {
+            turns: vec![Turn {
+                start_scan: 5,
+                end_scan: 5,
+                heading_change_deg: 1.0,
+            }],
+            ..Scenario::paper()
+        },
+        Scenario {
+            scanner: ScannerConfig {
+                dropout_prob: 1.5,
+                ..ScannerConfig::default()
+            },
+            ..Scenario::paper()
+        },
+        Scenario {
+            scanner: ScannerConfig {
+                beams_per_rev: 2,
+                ..ScannerConfig::default()
+            },
+            ..Scenario::paper()
+        },
     ];
     for s in bad {
-        assert!(matches!(generate(&s), Err(DatasetError::InvalidParameter { .. } | DatasetError::BadValue { .. })));
+        assert!(matches!(
+            generate(&s),
+            Err(DatasetError::InvalidParameter { .. } | DatasetError::BadValue { .. })
+        ));
     }
 }

@@ -129,14 +129,22 @@ where
         init: Isometry2<f64>,
     ) -> Result<Registration, IcpError> {
         self.termination.validate()?;
-        for (name, value) in [("init.translation", init.translation.vector.norm()), ("init.rotation", init.rotation.angle())] {
+        for (name, value) in [
+            ("init.translation", init.translation.vector.norm()),
+            ("init.rotation", init.rotation.angle()),
+        ] {
             if !value.is_finite() {
-                return Err(IcpError::NonFinite { what: name, index: 0, value });
+                return Err(IcpError::NonFinite {
+                    what: name,
+                    index: 0,
+                    value,
+                });
             }
         }
         // Alg. 1 step 1: selection; the chosen points are gathered once, before the loop.
         let (mut src_idx, mut ref_idx) = (Vec::new(), Vec::new());
-        self.selection.select(source.len(), reference.len(), &mut src_idx, &mut ref_idx);
+        self.selection
+            .select(source.len(), reference.len(), &mut src_idx, &mut ref_idx);
         let src: Vec<Return> = src_idx.iter().map(|&i| source.returns()[i]).collect();
         let dst: Vec<Return> = ref_idx.iter().map(|&i| reference.returns()[i]).collect();
         let src_pts: Vec<Point2<f64>> = src.iter().map(|r| r.point).collect();
@@ -180,7 +188,7 @@ where
                 })
             }));
             self.robust.reweight(&pairs, &mut weights, &mut scratch); // Alg. 1 step 4, Huber
-            // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
+                                                                      // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
             let increment = self.minimizer.solve(&moved, &dst_pts, &pairs, &weights)?;
             last_weight_sum = weights.iter().sum();
             t_ref_src = increment * t_ref_src;

@@ -25,13 +25,26 @@ pub trait Minimizer: Send + Sync {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct WeightedSvd;
 
-/// Weighted centroids and cross-covariance of the pairs: `(m_p, m_q, C, Σw)`.
+/// Weighted centroids and cross-covariance of the pairs (eqs. 15, 17, 18).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeightedMoments {
+    /// Weighted centroid of the moved source points, `m_p`.
+    pub m_p: Vector2<f64>,
+    /// Weighted centroid of the reference points, `m_q`.
+    pub m_q: Vector2<f64>,
+    /// `C = Σ w (p − m_p)(q − m_q)ᵀ / Σ w`.
+    pub cross_cov: Matrix2<f64>,
+    /// `Σ w`.
+    pub weight_sum: f64,
+}
+
+/// The weighted moments of the pairs; checks every weight.
 pub fn weighted_moments(
     src: &[Point2<f64>],
     dst: &[Point2<f64>],
     pairs: &[Correspondence],
     weights: &[f64],
-) -> Result<(Vector2<f64>, Vector2<f64>, Matrix2<f64>, f64), IcpError> {
+) -> Result<WeightedMoments, IcpError> {
     if weights.len() != pairs.len() {
         return Err(IcpError::LengthMismatch {
             what: "weights",
@@ -58,7 +71,12 @@ pub fn weighted_moments(
     for (pair, &w) in pairs.iter().zip(weights) {
         c += (src[pair.src].coords - m_p) * (dst[pair.dst].coords - m_q).transpose() * w;
     }
-    Ok((m_p, m_q, c / w_sum, w_sum))
+    Ok(WeightedMoments {
+        m_p,
+        m_q,
+        cross_cov: c / w_sum,
+        weight_sum: w_sum,
+    })
 }
 
 impl Minimizer for WeightedSvd {
@@ -69,8 +87,13 @@ impl Minimizer for WeightedSvd {
         pairs: &[Correspondence],
         weights: &[f64],
     ) -> Result<Isometry2<f64>, IcpError> {
-        let (m_p, m_q, c, _) = weighted_moments(src, dst, pairs, weights)?;
-        let svd = c.svd(true, true);
+        let WeightedMoments {
+            m_p,
+            m_q,
+            cross_cov,
+            ..
+        } = weighted_moments(src, dst, pairs, weights)?;
+        let svd = cross_cov.svd(true, true);
         let (u, v_t) = match (svd.u, svd.v_t) {
             (Some(u), Some(v_t)) => (u, v_t),
             _ => return Err(IcpError::NonFiniteTransform),
@@ -93,12 +116,19 @@ mod tests {
     use proptest::prelude::*;
 
     fn identity_pairs(n: usize) -> Vec<Correspondence> {
-        (0..n).map(|i| Correspondence { src: i, dst: i, dist_sq: 0.0 }).collect()
+        (0..n)
+            .map(|i| Correspondence {
+                src: i,
+                dst: i,
+                dist_sq: 0.0,
+            })
+            .collect()
     }
 
     /// Closed-form 2D solution, an independent oracle: θ = atan2(Σw (p×q), Σw (p·q)).
     fn closed_form(src: &[Point2<f64>], dst: &[Point2<f64>], w: &[f64]) -> f64 {
-        let (m_p, m_q, _, _) = weighted_moments(src, dst, &identity_pairs(src.len()), w).unwrap();
+        let WeightedMoments { m_p, m_q, .. } =
+            weighted_moments(src, dst, &identity_pairs(src.len()), w).unwrap();
         let (mut cross, mut dot) = (0.0, 0.0);
         for ((p, q), &w) in src.iter().zip(dst).zip(w) {
             let (p, q) = (p.coords - m_p, q.coords - m_q);
@@ -142,7 +172,7 @@ mod tests {
             // Noisy data: the SVD, the closed form and faer agree on the least-squares optimum.
             let noisy: Vec<_> = dst.iter().zip(&noise).map(|(q, &(a, b))| q + Vector2::new(a, b)).collect();
             let est = WeightedSvd.solve(&src, &noisy, &pairs, &w).unwrap();
-            let (_, _, c, _) = weighted_moments(&src, &noisy, &pairs, &w).unwrap();
+            let c = weighted_moments(&src, &noisy, &pairs, &w).unwrap().cross_cov;
             let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
             prop_assert!(wrap(est.rotation.angle() - closed_form(&src, &noisy, &w)).abs() < 1e-9);
             prop_assert!(wrap(est.rotation.angle() - faer_rotation(&c)).abs() < 1e-9);
@@ -152,21 +182,40 @@ mod tests {
     #[test]
     fn reflection_guard_returns_a_rotation() {
         // dst is src mirrored about the x axis: the unguarded SVD would return a reflection.
-        let src = [Point2::new(1.0, 0.5), Point2::new(-2.0, 1.0), Point2::new(0.5, -3.0), Point2::new(3.0, 2.0)];
+        let src = [
+            Point2::new(1.0, 0.5),
+            Point2::new(-2.0, 1.0),
+            Point2::new(0.5, -3.0),
+            Point2::new(3.0, 2.0),
+        ];
         let dst: Vec<_> = src.iter().map(|p| Point2::new(p.x, -p.y)).collect();
         let w = [1.0; 4];
-        let est = WeightedSvd.solve(&src, &dst, &identity_pairs(4), &w).unwrap();
+        let est = WeightedSvd
+            .solve(&src, &dst, &identity_pairs(4), &w)
+            .unwrap();
         let r = est.rotation.to_rotation_matrix().into_inner();
         assert!((r.determinant() - 1.0).abs() < 1e-12);
-        let (m_p, m_q, c, _) = weighted_moments(&src, &dst, &identity_pairs(4), &w).unwrap();
-        assert!(c.determinant() < 0.0, "the test needs a reflection-type cross-covariance");
+        let WeightedMoments {
+            m_p,
+            m_q,
+            cross_cov: c,
+            ..
+        } = weighted_moments(&src, &dst, &identity_pairs(4), &w).unwrap();
+        assert!(
+            c.determinant() < 0.0,
+            "the test needs a reflection-type cross-covariance"
+        );
         assert!((est.rotation.angle() - closed_form(&src, &dst, &w)).abs() < 1e-9);
         assert!((est * Point2::from(m_p) - Point2::from(m_q)).norm() < 1e-12);
     }
 
     #[test]
     fn bad_weights_are_errors() {
-        let src = [Point2::new(0.0, 0.0), Point2::new(1.0, 0.0), Point2::new(0.0, 1.0)];
+        let src = [
+            Point2::new(0.0, 0.0),
+            Point2::new(1.0, 0.0),
+            Point2::new(0.0, 1.0),
+        ];
         let p = identity_pairs(3);
         assert_eq!(
             WeightedSvd.solve(&src, &src, &p, &[0.0; 3]),

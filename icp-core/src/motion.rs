@@ -55,7 +55,11 @@ impl MovementParams {
             });
         }
         if !hdg0_deg.is_finite() {
-            return Err(IcpError::NonFinite { what: "hdg0_deg", index: 0, value: hdg0_deg });
+            return Err(IcpError::NonFinite {
+                what: "hdg0_deg",
+                index: 0,
+                value: hdg0_deg,
+            });
         }
         let theta_deg = t_ref_src.rotation.angle().to_degrees(); // atan2, not the printed arcsin
         let dcog_deg = wrap_deg(match sense {
@@ -115,14 +119,21 @@ mod tests {
         // translation (1.2, 0) and rotation −2°; scans register by the inverse of that pose.
         let pose_k_k1 = Isometry2::new(Vector2::new(1.2, 0.0), (-2.0f64).to_radians());
         let t_ref_src = pose_k_k1.inverse();
-        let m = MovementParams::from_registration(&t_ref_src, 1.0, 359.0, BearingSense::CounterClockwise).unwrap();
+        let m = MovementParams::from_registration(
+            &t_ref_src,
+            1.0,
+            359.0,
+            BearingSense::CounterClockwise,
+        )
+        .unwrap();
         assert!((m.sog_mps - 1.2).abs() < 1e-12);
         assert!((m.dcog_deg - 2.0).abs() < 1e-12);
         assert!((m.rot_dps - 2.0).abs() < 1e-12);
         assert!((m.hdg_deg - 1.0).abs() < 1e-9);
         // The same motion seen by a clockwise scanner (y to starboard) is mirrored.
         let mirrored = Isometry2::new(Vector2::new(1.2, 0.0), 2.0f64.to_radians()).inverse();
-        let c = MovementParams::from_registration(&mirrored, 0.5, 0.0, BearingSense::Clockwise).unwrap();
+        let c = MovementParams::from_registration(&mirrored, 0.5, 0.0, BearingSense::Clockwise)
+            .unwrap();
         assert!((c.dcog_deg - 2.0).abs() < 1e-12 && (c.rot_dps - 4.0).abs() < 1e-12);
         assert!((c.sog_mps - 2.4).abs() < 1e-12);
     }
@@ -131,7 +142,9 @@ mod tests {
     fn bad_time_step_is_an_error() {
         let t = Isometry2::identity();
         for dt in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            assert!(MovementParams::from_registration(&t, dt, 0.0, BearingSense::Clockwise).is_err());
+            assert!(
+                MovementParams::from_registration(&t, dt, 0.0, BearingSense::Clockwise).is_err()
+            );
         }
     }
 }

@@ -67,7 +67,11 @@ pub fn median_in_place(values: &mut [f64]) -> Option<f64> {
     if n % 2 == 1 {
         return Some(upper_mid);
     }
-    let lower_mid = lower.iter().copied().max_by(f64::total_cmp).expect("n >= 2 here");
+    let lower_mid = lower
+        .iter()
+        .copied()
+        .max_by(f64::total_cmp)
+        .expect("n >= 2 here");
     Some(0.5 * (lower_mid + upper_mid))
 }
 
@@ -78,7 +82,11 @@ mod tests {
     fn pairs(d: &[f64]) -> Vec<Correspondence> {
         d.iter()
             .enumerate()
-            .map(|(i, &d)| Correspondence { src: i, dst: i, dist_sq: d * d })
+            .map(|(i, &d)| Correspondence {
+                src: i,
+                dst: i,
+                dist_sq: d * d,
+            })
             .collect()
     }
 

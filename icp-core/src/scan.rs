@@ -172,7 +172,10 @@ pub fn check_geometry<'a>(
             need: MIN_POINTS,
         });
     }
-    let mean = points.clone().fold(Vector2::zeros(), |acc, p| acc + p.coords) / n as f64;
+    let mean = points
+        .clone()
+        .fold(Vector2::zeros(), |acc, p| acc + p.coords)
+        / n as f64;
     let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
     for p in points {
         let d = p.coords - mean;
@@ -206,7 +209,8 @@ mod tests {
 
     #[test]
     fn polar_drops_and_counts_no_returns() {
-        let scan = Scan::from_polar(&[1.0, f64::NAN, 0.0, 2.0], &[0.0, 0.1, f64::NAN, 1.0]).unwrap();
+        let scan =
+            Scan::from_polar(&[1.0, f64::NAN, 0.0, 2.0], &[0.0, 0.1, f64::NAN, 1.0]).unwrap();
         assert_eq!(scan.len(), 2);
         assert_eq!(scan.no_returns(), 2);
         let r = scan.returns()[1];
@@ -218,25 +222,47 @@ mod tests {
     fn polar_rejects_bad_readings() {
         assert_eq!(
             Scan::from_polar(&[1.0, 2.0], &[0.0]),
-            Err(IcpError::LengthMismatch { what: "bearings", expected: 2, got: 1 })
+            Err(IcpError::LengthMismatch {
+                what: "bearings",
+                expected: 2,
+                got: 1
+            })
         );
         assert_eq!(
             Scan::from_polar(&[1.0, -2.0], &[0.0, 0.0]),
-            Err(IcpError::NegativeRange { index: 1, value: -2.0 })
+            Err(IcpError::NegativeRange {
+                index: 1,
+                value: -2.0
+            })
         );
         assert!(matches!(
             Scan::from_polar(&[f64::INFINITY], &[0.0]),
-            Err(IcpError::NonFinite { what: "range", index: 0, .. })
+            Err(IcpError::NonFinite {
+                what: "range",
+                index: 0,
+                ..
+            })
         ));
         assert!(matches!(
             Scan::from_polar(&[1.0], &[f64::NAN]),
-            Err(IcpError::NonFinite { what: "bearing", index: 0, .. })
+            Err(IcpError::NonFinite {
+                what: "bearing",
+                index: 0,
+                ..
+            })
         ));
         assert!(matches!(
             Scan::from_cartesian(&[[0.0, f64::NEG_INFINITY]]),
-            Err(IcpError::NonFinite { what: "coordinate", index: 0, .. })
+            Err(IcpError::NonFinite {
+                what: "coordinate",
+                index: 0,
+                ..
+            })
         ));
-        assert!(Scan::from_polar(&[1.0], &[0.0]).unwrap().with_timestamp(f64::NAN).is_err());
+        assert!(Scan::from_polar(&[1.0], &[0.0])
+            .unwrap()
+            .with_timestamp(f64::NAN)
+            .is_err());
     }
 
     #[test]
@@ -251,21 +277,35 @@ mod tests {
 
     #[test]
     fn geometry_check_flags_degenerate_sets() {
-        let pts = |v: &[[f64; 2]]| v.iter().map(|&[x, y]| Point2::new(x, y)).collect::<Vec<_>>();
+        let pts = |v: &[[f64; 2]]| {
+            v.iter()
+                .map(|&[x, y]| Point2::new(x, y))
+                .collect::<Vec<_>>()
+        };
         let two = pts(&[[0.0, 0.0], [1.0, 1.0]]);
         assert!(matches!(
             check_geometry(two.iter(), ScanRole::Source),
-            Err(IcpError::TooFewPoints { got: 2, need: 3, .. })
+            Err(IcpError::TooFewPoints {
+                got: 2,
+                need: 3,
+                ..
+            })
         ));
         let same = pts(&[[5.0, 5.0]; 4]);
         assert_eq!(
             check_geometry(same.iter(), ScanRole::Reference),
-            Err(IcpError::Degenerate { role: ScanRole::Reference, kind: Degeneracy::Coincident })
+            Err(IcpError::Degenerate {
+                role: ScanRole::Reference,
+                kind: Degeneracy::Coincident
+            })
         );
         let line = pts(&[[0.0, 1.0], [1.0, 3.0], [2.0, 5.0], [3.0, 7.0]]);
         assert_eq!(
             check_geometry(line.iter(), ScanRole::Source),
-            Err(IcpError::Degenerate { role: ScanRole::Source, kind: Degeneracy::Collinear })
+            Err(IcpError::Degenerate {
+                role: ScanRole::Source,
+                kind: Degeneracy::Collinear
+            })
         );
         let far_line = pts(&[[1e9, 1e9], [1e9 + 1.0, 1e9 + 1.0], [1e9 + 2.0, 1e9 + 2.0]]);
         assert!(check_geometry(far_line.iter(), ScanRole::Source).is_err());

@@ -157,7 +157,10 @@ mod tests {
             let beam_expected = rot.transpose() * expected * rot;
             for i in 0..2 {
                 let rel = (beam[(i, i)] - beam_expected[(i, i)]).abs() / beam_expected[(i, i)];
-                assert!(rel < 0.02, "r={r} alpha={alpha_deg} axis {i}: rel err {rel}");
+                assert!(
+                    rel < 0.02,
+                    "r={r} alpha={alpha_deg} axis {i}: rel err {rel}"
+                );
             }
             let corr = beam[(0, 1)] / (beam[(0, 0)] * beam[(1, 1)]).sqrt();
             assert!(corr.abs() < 0.02, "beam-frame correlation {corr}");
@@ -173,13 +176,21 @@ mod tests {
             sigma_r_per_m: 0.004258,
             sigma_alpha_rad: 0.8f64.to_radians(),
         };
-        for &(r, a, b) in &[(3.0f64, 0.1f64, 0.1f64), (12.0, 1.0, 2.5), (30.0, -2.0, 0.7), (7.0, 3.0, -3.0)] {
+        for &(r, a, b) in &[
+            (3.0f64, 0.1f64, 0.1f64),
+            (12.0, 1.0, 2.5),
+            (30.0, -2.0, 0.7),
+            (7.0, 3.0, -3.0),
+        ] {
             let along = model.sigma_r_m(r);
             let across = model.sigma_alpha_rad * r;
             let d = b - a;
             let expected = along * along * d.cos().powi(2) + across * across * d.sin().powi(2);
             let got = model.directional_variance(r, a, b);
-            assert!((got - expected).abs() <= 1e-15 * expected.max(1.0), "{got} vs {expected}");
+            assert!(
+                (got - expected).abs() <= 1e-15 * expected.max(1.0),
+                "{got} vs {expected}"
+            );
         }
         // Along the beam only σ_r counts, across it only σ_α r (the ellipse axes, eqs. 6, 7).
         let r = 10.0;
@@ -196,14 +207,32 @@ mod tests {
     fn validate_rejects_bad_parameters() {
         assert!(SensorModel::sweep().validate().is_ok());
         let bad = [
-            SensorModel { sigma_alpha_rad: f64::NAN, ..SensorModel::sweep() },
-            SensorModel { sigma_alpha_rad: 0.0, ..SensorModel::sweep() },
-            SensorModel { sigma_r_per_m: -1.0, ..SensorModel::sweep() },
-            SensorModel { sigma_r_per_m: 0.0, ..SensorModel::sweep() },
-            SensorModel { sigma_r_const_m: f64::INFINITY, ..SensorModel::sweep() },
+            SensorModel {
+                sigma_alpha_rad: f64::NAN,
+                ..SensorModel::sweep()
+            },
+            SensorModel {
+                sigma_alpha_rad: 0.0,
+                ..SensorModel::sweep()
+            },
+            SensorModel {
+                sigma_r_per_m: -1.0,
+                ..SensorModel::sweep()
+            },
+            SensorModel {
+                sigma_r_per_m: 0.0,
+                ..SensorModel::sweep()
+            },
+            SensorModel {
+                sigma_r_const_m: f64::INFINITY,
+                ..SensorModel::sweep()
+            },
         ];
         for m in bad {
-            assert!(matches!(m.validate(), Err(IcpError::InvalidParameter { .. })), "{m:?}");
+            assert!(
+                matches!(m.validate(), Err(IcpError::InvalidParameter { .. })),
+                "{m:?}"
+            );
         }
     }
 }

@@ -46,22 +46,50 @@ fn chain<S, M, W, K>(
 
 /// K_ICP with the paper's stages: equal-count selection (seed 0), k-d tree matching.
 pub fn k_icp() -> KIcp {
-    chain("K_ICP", EqualCount::default(), KdTree, Uniform, NoRobust, Termination::default())
+    chain(
+        "K_ICP",
+        EqualCount::default(),
+        KdTree,
+        Uniform,
+        NoRobust,
+        Termination::default(),
+    )
 }
 
 /// H_ICP: K_ICP plus Huber rejection with `c = 2.0138`.
 pub fn h_icp() -> HIcp {
-    chain("H_ICP", EqualCount::default(), KdTree, Uniform, HuberMedian::default(), Termination::default())
+    chain(
+        "H_ICP",
+        EqualCount::default(),
+        KdTree,
+        Uniform,
+        HuberMedian::default(),
+        Termination::default(),
+    )
 }
 
 /// HM_ICP: H_ICP with mean-error weights from `sensor`.
 pub fn hm_icp(sensor: SensorModel) -> HmIcp {
-    chain("HM_ICP", EqualCount::default(), KdTree, MeanError { sensor }, HuberMedian::default(), Termination::default())
+    chain(
+        "HM_ICP",
+        EqualCount::default(),
+        KdTree,
+        MeanError { sensor },
+        HuberMedian::default(),
+        Termination::default(),
+    )
 }
 
 /// HD_ICP: H_ICP with directional weights from `sensor`.
 pub fn hd_icp(sensor: SensorModel) -> HdIcp {
-    chain("HD_ICP", EqualCount::default(), KdTree, Directional { sensor }, HuberMedian::default(), Termination::default())
+    chain(
+        "HD_ICP",
+        EqualCount::default(),
+        KdTree,
+        Directional { sensor },
+        HuberMedian::default(),
+        Termination::default(),
+    )
 }
 
 /// A variant of Table 1, by name.
@@ -105,7 +133,11 @@ impl Variant {
         })
     }
 
-    fn build_with<M: Matcher + 'static>(self, matcher: M, config: &VariantConfig) -> Box<dyn Registrar> {
+    fn build_with<M: Matcher + 'static>(
+        self,
+        matcher: M,
+        config: &VariantConfig,
+    ) -> Box<dyn Registrar> {
         let selection: Box<dyn Selection> = match config.selection {
             SelectionKind::All => Box::new(AllPoints),
             SelectionKind::EqualCount { seed } => Box::new(EqualCount { seed }),
@@ -115,8 +147,22 @@ impl Variant {
         match self {
             Variant::KIcp => Box::new(chain(name, selection, matcher, Uniform, NoRobust, term)),
             Variant::HIcp => Box::new(chain(name, selection, matcher, Uniform, huber, term)),
-            Variant::HmIcp => Box::new(chain(name, selection, matcher, MeanError { sensor }, huber, term)),
-            Variant::HdIcp => Box::new(chain(name, selection, matcher, Directional { sensor }, huber, term)),
+            Variant::HmIcp => Box::new(chain(
+                name,
+                selection,
+                matcher,
+                MeanError { sensor },
+                huber,
+                term,
+            )),
+            Variant::HdIcp => Box::new(chain(
+                name,
+                selection,
+                matcher,
+                Directional { sensor },
+                huber,
+                term,
+            )),
         }
     }
 }
@@ -133,7 +179,9 @@ impl std::str::FromStr for Variant {
         Variant::ALL
             .into_iter()
             .find(|v| v.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| format!("unknown variant {s:?}: expected K_ICP, H_ICP, HM_ICP or HD_ICP"))
+            .ok_or_else(|| {
+                format!("unknown variant {s:?}: expected K_ICP, H_ICP, HM_ICP or HD_ICP")
+            })
     }
 }
 
@@ -216,10 +264,22 @@ mod tests {
 
     #[test]
     fn invalid_config_is_refused() {
-        let bad = VariantConfig { huber_c: -1.0, ..Default::default() };
-        assert!(matches!(Variant::HIcp.build(&bad), Err(IcpError::InvalidParameter { name: "huber_c", .. })));
         let bad = VariantConfig {
-            termination: Termination { max_iterations: 0, mean_dist_change_eps_m: 1e-6 },
+            huber_c: -1.0,
+            ..Default::default()
+        };
+        assert!(matches!(
+            Variant::HIcp.build(&bad),
+            Err(IcpError::InvalidParameter {
+                name: "huber_c",
+                ..
+            })
+        ));
+        let bad = VariantConfig {
+            termination: Termination {
+                max_iterations: 0,
+                mean_dist_change_eps_m: 1e-6,
+            },
             ..Default::default()
         };
         assert!(Variant::KIcp.build(&bad).is_err());

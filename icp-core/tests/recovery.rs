@@ -15,7 +15,10 @@ fn spread_points(seed: u64, n: usize, spacing: f64) -> Vec<[f64; 2]> {
     let mut pts: Vec<[f64; 2]> = Vec::with_capacity(n);
     while pts.len() < n {
         let p = [rng.random_range(-30.0..30.0), rng.random_range(-30.0..30.0)];
-        if pts.iter().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= spacing) {
+        if pts
+            .iter()
+            .all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= spacing)
+        {
             pts.push(p);
         }
     }
@@ -25,7 +28,13 @@ fn spread_points(seed: u64, n: usize, spacing: f64) -> Vec<[f64; 2]> {
 /// A harbour-like scene: quay walls and a hull sampled every 0.5 m, as a LIDAR sees them.
 fn structured_points(seed: u64) -> Vec<[f64; 2]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let corners: [[f64; 2]; 5] = [[-25.0, -12.0], [22.0, -12.0], [22.0, 15.0], [5.0, 15.0], [5.0, 25.0]];
+    let corners: [[f64; 2]; 5] = [
+        [-25.0, -12.0],
+        [22.0, -12.0],
+        [22.0, 15.0],
+        [5.0, 15.0],
+        [5.0, 25.0],
+    ];
     let mut pts = Vec::new();
     for w in corners.windows(2) {
         let (a, b) = (w[0], w[1]);
@@ -56,8 +65,15 @@ fn transform(t: &Isometry2<f64>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
 
 fn registrars() -> Vec<Box<dyn Registrar>> {
     let mut out = Vec::new();
-    for matcher in [MatcherKind::Kdtree, MatcherKind::Delaunay, MatcherKind::Brute] {
-        let config = VariantConfig { matcher, ..Default::default() };
+    for matcher in [
+        MatcherKind::Kdtree,
+        MatcherKind::Delaunay,
+        MatcherKind::Brute,
+    ] {
+        let config = VariantConfig {
+            matcher,
+            ..Default::default()
+        };
         for v in Variant::ALL {
             out.push(v.build(&config).unwrap());
         }
@@ -65,7 +81,11 @@ fn registrars() -> Vec<Box<dyn Registrar>> {
     out
 }
 
-fn assert_recovers(source: &[[f64; 2]], truth: Isometry2<f64>, init: Isometry2<f64>) -> Result<(), TestCaseError> {
+fn assert_recovers(
+    source: &[[f64; 2]],
+    truth: Isometry2<f64>,
+    init: Isometry2<f64>,
+) -> Result<(), TestCaseError> {
     let src = Scan::from_cartesian(source).unwrap();
     let reference = Scan::from_cartesian(&transform(&truth, source)).unwrap();
     for reg in registrars() {
@@ -95,7 +115,7 @@ proptest! {
         seed in 0u64..1000,
         theta_deg in -30.0..30.0f64,
         t_len in 0.0..3.0f64,
-        t_dir in -3.14..3.14f64,
+        t_dir in -std::f64::consts::PI..std::f64::consts::PI,
         (dx, dy, dth) in (-0.05..0.05f64, -0.05..0.05f64, -0.1..0.1f64),
     ) {
         let truth = Isometry2::new(Vector2::new(t_len * t_dir.cos(), t_len * t_dir.sin()), theta_deg.to_radians());
@@ -108,7 +128,7 @@ proptest! {
         seed in 0u64..1000,
         theta_deg in -30.0..30.0f64,
         t_len in 0.0..3.0f64,
-        t_dir in -3.14..3.14f64,
+        t_dir in -std::f64::consts::PI..std::f64::consts::PI,
         (dx, dy, dth) in (-0.03..0.03f64, -0.03..0.03f64, -0.05..0.05f64),
     ) {
         let truth = Isometry2::new(Vector2::new(t_len * t_dir.cos(), t_len * t_dir.sin()), theta_deg.to_radians());
@@ -130,9 +150,21 @@ fn identical_scans_give_zero_motion_to_machine_precision() {
     for reg in registrars() {
         let out = reg.register(&scan, &scan, Isometry2::identity()).unwrap();
         // The SVD's rotation is the identity to rounding, not bit-exactly.
-        assert!(out.t_ref_src.translation.vector.norm() < 1e-12, "{}", reg.name());
-        assert!(out.t_ref_src.rotation.angle().abs() < 1e-14, "{}", reg.name());
-        assert!(out.converged() && out.iterations <= 2, "{}: {out:?}", reg.name());
+        assert!(
+            out.t_ref_src.translation.vector.norm() < 1e-12,
+            "{}",
+            reg.name()
+        );
+        assert!(
+            out.t_ref_src.rotation.angle().abs() < 1e-14,
+            "{}",
+            reg.name()
+        );
+        assert!(
+            out.converged() && out.iterations <= 2,
+            "{}: {out:?}",
+            reg.name()
+        );
     }
 }
 
@@ -155,14 +187,22 @@ fn huber_beats_plain_icp_with_outliers() {
         }
         let n_out = moved.len() / 10;
         for p in moved.iter_mut().take(n_out * 10).step_by(10) {
-            let (r, a) = (rng.random_range(5.0..15.0), rng.random_range(0.0..std::f64::consts::TAU));
+            let (r, a) = (
+                rng.random_range(5.0..15.0),
+                rng.random_range(0.0..std::f64::consts::TAU),
+            );
             p[0] += r * f64::cos(a);
             p[1] += r * f64::sin(a);
         }
-        let (src, reference) = (Scan::from_cartesian(&source).unwrap(), Scan::from_cartesian(&moved).unwrap());
+        let (src, reference) = (
+            Scan::from_cartesian(&source).unwrap(),
+            Scan::from_cartesian(&moved).unwrap(),
+        );
         let err = |v: Variant| {
             let reg = v.build(&VariantConfig::default()).unwrap();
-            let out = reg.register(&src, &reference, Isometry2::identity()).unwrap();
+            let out = reg
+                .register(&src, &reference, Isometry2::identity())
+                .unwrap();
             (out.t_ref_src.translation.vector - truth.translation.vector).norm()
         };
         let (k, h) = (err(Variant::KIcp), err(Variant::HIcp));
@@ -175,8 +215,14 @@ fn huber_beats_plain_icp_with_outliers() {
     let (k_mean, h_mean) = (k_sum / trials as f64, h_sum / trials as f64);
     eprintln!("mean translation error with 10% outliers: K_ICP {k_mean:.4} m, H_ICP {h_mean:.4} m");
     // Stated margin: H_ICP's mean error is at most half of K_ICP's, and it is never worse.
-    assert!(h_mean < 0.5 * k_mean, "K_ICP {k_mean} m vs H_ICP {h_mean} m");
-    assert_eq!(worse, 0, "H_ICP was worse than K_ICP on {worse} of {trials} scans");
+    assert!(
+        h_mean < 0.5 * k_mean,
+        "K_ICP {k_mean} m vs H_ICP {h_mean} m"
+    );
+    assert_eq!(
+        worse, 0,
+        "H_ICP was worse than K_ICP on {worse} of {trials} scans"
+    );
 }
 
 #[test]
@@ -190,22 +236,37 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
         let tiny = Scan::from_cartesian(&structured_points(3)[..n]).unwrap();
         assert!(matches!(
             reg.register(&tiny, &good, id),
-            Err(IcpError::TooFewPoints { role: ScanRole::Source, .. })
+            Err(IcpError::TooFewPoints {
+                role: ScanRole::Source,
+                ..
+            })
         ));
     }
     let line: Vec<[f64; 2]> = (0..50).map(|i| [i as f64 * 0.3, 5.0]).collect();
     let corridor_wall = Scan::from_cartesian(&line).unwrap();
-    let all_points = VariantConfig { selection: icp_core::variants::SelectionKind::All, ..Default::default() };
+    let all_points = VariantConfig {
+        selection: icp_core::variants::SelectionKind::All,
+        ..Default::default()
+    };
     let reg_all = Variant::HdIcp.build(&all_points).unwrap();
     assert_eq!(
         reg_all.register(&good, &corridor_wall, id).unwrap_err(),
-        IcpError::Degenerate { role: ScanRole::Reference, kind: Degeneracy::Collinear }
+        IcpError::Degenerate {
+            role: ScanRole::Reference,
+            kind: Degeneracy::Collinear
+        }
     );
     let same = Scan::from_cartesian(&[[4.0, 4.0]; 10]).unwrap();
     assert_eq!(
         reg_all.register(&same, &good, id).unwrap_err(),
-        IcpError::Degenerate { role: ScanRole::Source, kind: Degeneracy::Coincident }
+        IcpError::Degenerate {
+            role: ScanRole::Source,
+            kind: Degeneracy::Coincident
+        }
     );
     let nan_init = Isometry2::new(Vector2::new(f64::NAN, 0.0), 0.0);
-    assert!(matches!(reg.register(&good, &good, nan_init), Err(IcpError::NonFinite { .. })));
+    assert!(matches!(
+        reg.register(&good, &good, nan_init),
+        Err(IcpError::NonFinite { .. })
+    ));
 }

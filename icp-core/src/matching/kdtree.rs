@@ -21,13 +21,12 @@ impl Matcher for KdTree {
     fn build(&self, reference: &[Point2<f64>]) -> Result<Self::Index, IcpError> {
         check_reference(reference)?;
         let coords: Vec<[f64; 2]> = reference.iter().map(|p| [p.x, p.y]).collect();
-        let tree = ImmutableKdTree::new_from_slice(&coords).map_err(|_| {
-            IcpError::InvalidParameter {
+        let tree =
+            ImmutableKdTree::new_from_slice(&coords).map_err(|_| IcpError::InvalidParameter {
                 name: "reference",
                 value: reference.len() as f64,
                 reason: "the k-d tree could not be built over these points",
-            }
-        })?;
+            })?;
         Ok(KdTreeIndex {
             tree,
             points: reference.to_vec(),

@@ -72,7 +72,9 @@ impl std::str::FromStr for MatcherKind {
             "kdtree" | "kd-tree" => Ok(Self::Kdtree),
             "delaunay" => Ok(Self::Delaunay),
             "brute" | "brute-force" => Ok(Self::Brute),
-            other => Err(format!("unknown matcher {other:?}: expected kdtree, delaunay or brute")),
+            other => Err(format!(
+                "unknown matcher {other:?}: expected kdtree, delaunay or brute"
+            )),
         }
     }
 }
@@ -159,7 +161,10 @@ mod tests {
                 Point2::new(r * a.cos(), r * a.sin())
             })
             .collect();
-        let queries: Vec<_> = reference.iter().map(|p| p + nalgebra::Vector2::new(0.07, -0.03)).collect();
+        let queries: Vec<_> = reference
+            .iter()
+            .map(|p| p + nalgebra::Vector2::new(0.07, -0.03))
+            .collect();
         check_all_agree(&reference, &queries);
     }
 
@@ -200,7 +205,11 @@ mod tests {
             Err(IcpError::CoordinateOutOfRange { index: 1, .. })
         ));
         let nan = points(&[(0.0, f64::NAN)]);
-        for r in [BruteForce.build(&nan).err(), KdTree.build(&nan).err(), Delaunay.build(&nan).err()] {
+        for r in [
+            BruteForce.build(&nan).err(),
+            KdTree.build(&nan).err(),
+            Delaunay.build(&nan).err(),
+        ] {
             assert!(matches!(r, Some(IcpError::NonFinite { .. })));
         }
     }

@@ -25,8 +25,11 @@ impl PairWeighting for Directional {
         } else {
             let beta_ref = d.y.atan2(d.x);
             let beta_src = beta_ref - pair.rotation_ref_src.angle();
-            self.sensor.directional_variance(src.range_m, src.bearing_rad, beta_src)
-                + self.sensor.directional_variance(dst.range_m, dst.bearing_rad, beta_ref)
+            self.sensor
+                .directional_variance(src.range_m, src.bearing_rad, beta_src)
+                + self
+                    .sensor
+                    .directional_variance(dst.range_m, dst.bearing_rad, beta_ref)
         };
         1.0 / g.sqrt()
     }
@@ -39,7 +42,11 @@ mod tests {
     use nalgebra::{Point2, UnitComplex};
 
     fn ret(r: f64, a: f64) -> Return {
-        Return { point: Point2::new(r * a.cos(), r * a.sin()), range_m: r, bearing_rad: a }
+        Return {
+            point: Point2::new(r * a.cos(), r * a.sin()),
+            range_m: r,
+            bearing_rad: a,
+        }
     }
 
     #[test]
@@ -60,7 +67,11 @@ mod tests {
         assert!((along - hand).abs() < 1e-9 * hand, "{along} vs {hand}");
         // Across the beams only σ_α r counts: the weight is smaller by about
         // σ_α / k = 0.00873 / 0.004258 = 2.05 (eq. 9 along the ellipse's long axis).
-        let dst_across = Return { point: Point2::new(20.0, 0.3), range_m: 20.0f64.hypot(0.3), bearing_rad: 0.3f64.atan2(20.0) };
+        let dst_across = Return {
+            point: Point2::new(20.0, 0.3),
+            range_m: 20.0f64.hypot(0.3),
+            bearing_rad: 0.3f64.atan2(20.0),
+        };
         let across = w.weight(&PairView {
             src: &src,
             dst: &dst_across,
@@ -68,19 +79,29 @@ mod tests {
             rotation_ref_src: UnitComplex::identity(),
         });
         let ratio = along / across;
-        assert!((ratio - 2.05).abs() < 0.03, "{along} vs {across}: ratio {ratio}");
+        assert!(
+            (ratio - 2.05).abs() < 0.03,
+            "{along} vs {across}: ratio {ratio}"
+        );
     }
 
     #[test]
     fn direction_is_taken_in_each_scan_frame() {
         // Rotating scan k by θ and telling the weighting so gives the same weight.
-        let w = Directional { sensor: SensorModel::sweep() };
+        let w = Directional {
+            sensor: SensorModel::sweep(),
+        };
         let theta = 0.4;
         let src = ret(15.0, 0.2);
         let dst = ret(15.2, 0.2 + theta + 0.01);
         let rot = UnitComplex::new(theta);
         let moved = rot * src.point;
-        let a = w.weight(&PairView { src: &src, dst: &dst, src_moved: moved, rotation_ref_src: rot });
+        let a = w.weight(&PairView {
+            src: &src,
+            dst: &dst,
+            src_moved: moved,
+            rotation_ref_src: rot,
+        });
         // Same geometry, with scan k already expressed in scan k+1's orientation.
         let src_rot = ret(15.0, 0.2 + theta);
         let b = w.weight(&PairView {

@@ -13,7 +13,8 @@ pub struct MeanError {
 impl PairWeighting for MeanError {
     #[inline]
     fn weight(&self, pair: &PairView<'_>) -> f64 {
-        let g = self.sensor.mean_error_sq(pair.src.range_m) + self.sensor.mean_error_sq(pair.dst.range_m);
+        let g = self.sensor.mean_error_sq(pair.src.range_m)
+            + self.sensor.mean_error_sq(pair.dst.range_m);
         1.0 / g.sqrt()
     }
 }
@@ -27,7 +28,11 @@ mod tests {
     #[test]
     fn hand_computed_weight() {
         // r = 10 m and 20 m, σ_α = 0.5°, σ_r = 0.004258 r.
-        let ret = |r: f64| Return { point: Point2::new(r, 0.0), range_m: r, bearing_rad: 0.0 };
+        let ret = |r: f64| Return {
+            point: Point2::new(r, 0.0),
+            range_m: r,
+            bearing_rad: 0.0,
+        };
         let (a, b) = (ret(10.0), ret(20.0));
         let view = PairView {
             src: &a,
@@ -37,7 +42,10 @@ mod tests {
         };
         let s = 0.5f64.to_radians();
         let g = (s * 10.0).powi(2) + 0.04258f64.powi(2) + (s * 20.0).powi(2) + 0.08516f64.powi(2);
-        let w = MeanError { sensor: SensorModel::sweep() }.weight(&view);
+        let w = MeanError {
+            sensor: SensorModel::sweep(),
+        }
+        .weight(&view);
         assert!((w - 1.0 / g.sqrt()).abs() < 1e-12 * w);
         assert!((w - 4.6057).abs() < 1e-4, "{w}");
     }
