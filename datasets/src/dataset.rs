@@ -98,16 +98,27 @@ impl Dataset {
         let mut pairs = Vec::new();
         let mut skipped = Vec::new();
         for k in 1..self.scans.len() {
-            let pair = ScanPair { source: k - 1, reference: k };
+            let pair = ScanPair {
+                source: k - 1,
+                reference: k,
+            };
             let short: Vec<String> = [k - 1, k]
                 .into_iter()
                 .filter(|&i| self.scans[i].len() < MIN_RETURNS)
-                .map(|i| format!("scan {i} has {} valid returns (< {MIN_RETURNS})", self.scans[i].len()))
+                .map(|i| {
+                    format!(
+                        "scan {i} has {} valid returns (< {MIN_RETURNS})",
+                        self.scans[i].len()
+                    )
+                })
                 .collect();
             if short.is_empty() {
                 pairs.push(pair);
             } else {
-                skipped.push(SkippedPair { pair, reason: short.join("; ") });
+                skipped.push(SkippedPair {
+                    pair,
+                    reason: short.join("; "),
+                });
             }
         }
         (pairs, skipped)
@@ -116,7 +127,10 @@ impl Dataset {
     /// Time between the two scans of a pair: from timestamps when both have one, else the
     /// nominal `dt_s` times the index difference.
     pub fn pair_dt_s(&self, pair: ScanPair) -> f64 {
-        match (self.scans[pair.source].timestamp_s(), self.scans[pair.reference].timestamp_s()) {
+        match (
+            self.scans[pair.source].timestamp_s(),
+            self.scans[pair.reference].timestamp_s(),
+        ) {
             (Some(a), Some(b)) => b - a,
             _ => self.dt_s * (pair.reference - pair.source) as f64,
         }

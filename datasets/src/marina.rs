@@ -17,18 +17,31 @@ use sha2::{Digest, Sha256};
 use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
 use crate::DatasetError;
 
-/// The three files, their variables and their pinned SHA-256 sums.
-pub const FILES: [(&str, &str, &str); 3] = [
-    ("angles.mat", "angles_baza", "893244923c82626288887bf69ff087475678dfc64092f0287743a9723b1f4ebe"),
-    ("ranges.mat", "ranges_baza", "0f4d0e127b3f07670a21470092aec0d50d4f3bc9940fef01f1b5306c8ffd04d0"),
-    ("gps.mat", "slam_pose", "0307f2699af59a325efe2967031f1355c988ae12a3d3936ff3a04f68122fea06"),
+/// The three files and the variables they hold.
+pub const FILES: [(&str, &str); 3] = [
+    ("angles.mat", "angles_baza"),
+    ("ranges.mat", "ranges_baza"),
+    ("gps.mat", "slam_pose"),
 ];
+
+/// The pinned SHA-256 sums, in `sha256sum` format: the same file `scripts/fetch-marina.sh`
+/// checks downloads against.
+pub const PINNED_SHA256: &str = include_str!("../marina.sha256");
+
+/// The pinned SHA-256 of one of [`FILES`], if any.
+pub fn pinned_sha256(file: &str) -> Option<&'static str> {
+    PINNED_SHA256.lines().find_map(|line| {
+        let (sum, name) = line.split_once(char::is_whitespace)?;
+        (name.trim().trim_start_matches('*') == file).then_some(sum)
+    })
+}
 
 /// Environment variable naming the data directory.
 pub const DATA_DIR_ENV: &str = "ICP_DATA_DIR";
 
 /// How to get the files, for error messages.
-pub const FETCH_HINT: &str = "Fetch them with `scripts/fetch-marina.sh [DIR]` (checked against pinned sha256 sums), \
+pub const FETCH_HINT: &str =
+    "Fetch them with `scripts/fetch-marina.sh [DIR]` (checked against pinned sha256 sums), \
 then pass `--data-dir DIR` or set ICP_DATA_DIR=DIR.";
 
 /// Loader parameters.
@@ -42,23 +55,27 @@ pub struct MarinaOptions {
 
 impl Default for MarinaOptions {
     fn default() -> Self {
-        Self { dt_s: 1.0, sensor: SensorModel::sweep() }
+        Self {
+            dt_s: 1.0,
+            sensor: SensorModel::sweep(),
+        }
     }
 }
 
-/// The directories searched for the marina files, in order: `--data-dir`, then
-/// `$ICP_DATA_DIR`, then `./datasets`; each either holds the files or a `marina/` folder
+/// The directories searched for the marina files, in order: `--data-dir` alone when it is
+/// given (an explicit choice is never silently replaced by another directory); otherwise
+/// `$ICP_DATA_DIR`, then `./datasets`. Each either holds the files or a `marina/` folder
 /// holding them.
 pub fn candidate_dirs(cli_dir: Option<&Path>, env_dir: Option<&Path>) -> Vec<PathBuf> {
-    let mut roots: Vec<PathBuf> = Vec::new();
-    if let Some(d) = cli_dir {
-        roots.push(d.to_path_buf());
-    }
-    if let Some(d) = env_dir {
-        roots.push(d.to_path_buf());
-    }
-    roots.push(PathBuf::from("datasets"));
-    roots.into_iter().flat_map(|r| [r.join("marina"), r]).collect()
+    let roots: Vec<PathBuf> = match (cli_dir, env_dir) {
+        (Some(d), _) => vec![d.to_path_buf()],
+        (None, Some(e)) => vec![e.to_path_buf(), PathBuf::from("datasets")],
+        (None, None) => vec![PathBuf::from("datasets")],
+    };
+    roots
+        .into_iter()
+        .flat_map(|r| [r.join("marina"), r])
+        .collect()
 }
 
 /// Finds the directory holding the three files (see [`candidate_dirs`]; `ICP_DATA_DIR` is read
@@ -72,7 +89,7 @@ pub fn find_data_dir(cli_dir: Option<&Path>) -> Result<PathBuf, DatasetError> {
 pub fn find_in(looked: Vec<PathBuf>) -> Result<PathBuf, DatasetError> {
     looked
         .iter()
-        .find(|d| FILES.iter().all(|(f, _, _)| d.join(f).is_file()))
+        .find(|d| FILES.iter().all(|(f, _)| d.join(f).is_file()))
         .cloned()
         .ok_or_else(|| DatasetError::NotFound {
             dataset: "marina",
@@ -85,15 +102,26 @@ pub fn find_in(looked: Vec<PathBuf>) -> Result<PathBuf, DatasetError> {
 pub fn load(dir: &Path, options: &MarinaOptions) -> Result<Dataset, DatasetError> {
     let mut bytes = Vec::new();
     let mut files = Vec::new();
-    for (name, _, pinned) in FILES {
+    for (name, _) in FILES {
         let path = dir.join(name);
-        let data = std::fs::read(&path).map_err(|source| DatasetError::Io { path: path.clone(), source })?;
+        let data = std::fs::read(&path).map_err(|source| DatasetError::Io {
+            path: path.clone(),
+            source,
+        })?;
         let sha256 = hex(&Sha256::digest(&data));
-        files.push(FileProvenance { matches_pinned: Some(sha256 == pinned), path, sha256 });
+        files.push(FileProvenance {
+            matches_pinned: pinned_sha256(name).map(|p| p == sha256),
+            path,
+            sha256,
+        });
         bytes.push(data);
     }
     let mut dataset = parse(
-        [(&files[0].path, &bytes[0][..]), (&files[1].path, &bytes[1][..]), (&files[2].path, &bytes[2][..])],
+        [
+            (&files[0].path, &bytes[0][..]),
+            (&files[1].path, &bytes[1][..]),
+            (&files[2].path, &bytes[2][..]),
+        ],
         options,
     )?;
     dataset.provenance.files = files;
@@ -102,7 +130,10 @@ pub fn load(dir: &Path, options: &MarinaOptions) -> Result<Dataset, DatasetError
 
 /// Parses the three files (angles, ranges, gps, in that order), each given with the path used
 /// in error messages.
-pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Result<Dataset, DatasetError> {
+pub fn parse<R: Read>(
+    inputs: [(&Path, R); 3],
+    options: &MarinaOptions,
+) -> Result<Dataset, DatasetError> {
     if !(options.dt_s.is_finite() && options.dt_s > 0.0) {
         return Err(DatasetError::InvalidParameter {
             name: "dt_s",
@@ -110,10 +141,13 @@ pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Resul
             reason: "must be finite and positive",
         });
     }
-    options.sensor.validate().map_err(|e| DatasetError::BadValue {
-        path: PathBuf::from("<sensor model>"),
-        what: e.to_string(),
-    })?;
+    options
+        .sensor
+        .validate()
+        .map_err(|e| DatasetError::BadValue {
+            path: PathBuf::from("<sensor model>"),
+            what: e.to_string(),
+        })?;
     let [(angles_path, angles), (ranges_path, ranges), (gps_path, gps)] = inputs;
     let angles = read_matrix(angles_path, angles, FILES[0].1)?;
     let ranges = read_matrix(ranges_path, ranges, FILES[1].1)?;
@@ -137,13 +171,21 @@ pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Resul
     }
     let mut scans = Vec::with_capacity(n_scans);
     for k in 0..n_scans {
-        let scan = Scan::from_polar(ranges.column(k), angles.column(k))
-            .map_err(|source| DatasetError::Scan { path: ranges_path.to_path_buf(), scan: k, source })?;
-        scans.push(scan.with_timestamp(k as f64 * options.dt_s).map_err(|source| DatasetError::Scan {
-            path: ranges_path.to_path_buf(),
-            scan: k,
-            source,
-        })?);
+        let scan = Scan::from_polar(ranges.column(k), angles.column(k)).map_err(|source| {
+            DatasetError::Scan {
+                path: ranges_path.to_path_buf(),
+                scan: k,
+                source,
+            }
+        })?;
+        scans.push(
+            scan.with_timestamp(k as f64 * options.dt_s)
+                .map_err(|source| DatasetError::Scan {
+                    path: ranges_path.to_path_buf(),
+                    scan: k,
+                    source,
+                })?,
+        );
     }
     let mut reference = Vec::with_capacity(n_scans);
     for k in 0..n_scans {
@@ -151,19 +193,27 @@ pub fn parse<R: Read>(inputs: [(&Path, R); 3], options: &MarinaOptions) -> Resul
         if !(x_m.is_finite() && y_m.is_finite() && heading_rad.is_finite()) {
             return Err(DatasetError::BadValue {
                 path: gps_path.to_path_buf(),
-                what: format!("non-finite reference pose in row {k}: ({x_m}, {y_m}, {heading_rad})"),
+                what: format!(
+                    "non-finite reference pose in row {k}: ({x_m}, {y_m}, {heading_rad})"
+                ),
             });
         }
         // The positions advance along +x whatever the heading (it turns by 85° and back while
         // the track stays within 7° of +x), so they are not a rigid pose of the scanner.
-        reference.push(ReferencePose { x_m, y_m, heading_rad, scan_yaw_rad: None });
+        reference.push(ReferencePose {
+            x_m,
+            y_m,
+            heading_rad,
+            scan_yaw_rad: None,
+        });
     }
     Ok(Dataset {
         provenance: Provenance {
             name: "marina".into(),
-            description: "Naus & Marchel (2019), Appl. Sci. 9(17) 3530: Gdynia yacht basin, Scanse Sweep, \
+            description:
+                "Naus & Marchel (2019), Appl. Sci. 9(17) 3530: Gdynia yacht basin, Scanse Sweep, \
                           GNSS RTK reference (public files from lukisp2/ICP_DATA_MARINA)"
-                .into(),
+                    .into(),
             files: Vec::new(),
         },
         scans,
@@ -205,24 +255,42 @@ fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix
     let mut bytes = Vec::new();
     reader
         .read_to_end(&mut bytes)
-        .map_err(|source| DatasetError::Io { path: path.to_path_buf(), source })?;
-    let parse_error = |reason: String| DatasetError::MatParse { path: path.to_path_buf(), reason };
+        .map_err(|source| DatasetError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let parse_error = |reason: String| DatasetError::MatParse {
+        path: path.to_path_buf(),
+        reason,
+    };
     if bytes.len() < 128 {
-        return Err(parse_error(format!("{} bytes, shorter than the 128-byte MATLAB v5 header", bytes.len())));
+        return Err(parse_error(format!(
+            "{} bytes, shorter than the 128-byte MATLAB v5 header",
+            bytes.len()
+        )));
     }
     if !bytes.starts_with(b"MATLAB 5.0 MAT-file") {
-        return Err(parse_error("the header does not start with \"MATLAB 5.0 MAT-file\"".into()));
+        return Err(parse_error(
+            "the header does not start with \"MATLAB 5.0 MAT-file\"".into(),
+        ));
     }
     let file = matfile::MatFile::parse(&bytes[..]).map_err(|e| parse_error(e.to_string()))?;
-    let array = file.find_by_name(name).ok_or_else(|| DatasetError::MissingVariable {
-        path: path.to_path_buf(),
-        name: name.into(),
-        found: file.arrays().iter().map(|a| a.name().to_owned()).collect(),
-    })?;
+    let array = file
+        .find_by_name(name)
+        .ok_or_else(|| DatasetError::MissingVariable {
+            path: path.to_path_buf(),
+            name: name.into(),
+            found: file.arrays().iter().map(|a| a.name().to_owned()).collect(),
+        })?;
     let size = array.size().clone();
     let data = match array.data() {
         matfile::NumericData::Double { real, imag: None } => real.clone(),
-        _ => return Err(DatasetError::NotRealDouble { path: path.to_path_buf(), name: name.into() }),
+        _ => {
+            return Err(DatasetError::NotRealDouble {
+                path: path.to_path_buf(),
+                name: name.into(),
+            })
+        }
     };
     if size.len() != 2 || size[0] * size[1] != data.len() {
         return Err(DatasetError::Shape {
@@ -232,7 +300,11 @@ fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix
             got: size,
         });
     }
-    Ok(Matrix { rows: size[0], cols: size[1], data })
+    Ok(Matrix {
+        rows: size[0],
+        cols: size[1],
+        data,
+    })
 }
 
 fn hex(bytes: &[u8]) -> String {

@@ -41,15 +41,26 @@ fn real_files_load_with_the_expected_counts() {
     let (pairs, skipped) = ds.consecutive_pairs();
     assert_eq!(pairs.len(), 175);
     assert_eq!(skipped.len(), 1);
-    assert_eq!((skipped[0].pair.source, skipped[0].pair.reference), (175, 176));
-    assert!(ds.provenance.files.iter().all(|f| f.matches_pinned == Some(true)));
+    assert_eq!(
+        (skipped[0].pair.source, skipped[0].pair.reference),
+        (175, 176)
+    );
+    assert!(ds
+        .provenance
+        .files
+        .iter()
+        .all(|f| f.matches_pinned == Some(true)));
     assert_eq!(ds.reference.as_ref().map(|r| r.len()), Some(177));
     assert_eq!(ds.pair_dt_s(pairs[3]), 1.0);
 }
 
 fn parse(angles: &[u8], ranges: &[u8], gps: &[u8]) -> Result<datasets::Dataset, DatasetError> {
     marina::parse(
-        [(Path::new("angles.mat"), angles), (Path::new("ranges.mat"), ranges), (Path::new("gps.mat"), gps)],
+        [
+            (Path::new("angles.mat"), angles),
+            (Path::new("ranges.mat"), ranges),
+            (Path::new("gps.mat"), gps),
+        ],
         &MarinaOptions::default(),
     )
 }
@@ -57,7 +68,20 @@ fn parse(angles: &[u8], ranges: &[u8], gps: &[u8]) -> Result<datasets::Dataset, 
 /// A small well-formed set: 4 beams × 3 scans, the last scan empty.
 fn small() -> (Vec<u8>, Vec<u8>, Vec<u8>) {
     let angles: Vec<f64> = (0..12).map(|i| (i % 4) as f64 * 1.5).collect();
-    let ranges = [5.0, 6.0, 7.0, f64::NAN, 5.1, 6.1, 0.0, 8.0, f64::NAN, f64::NAN, 0.0, 0.0];
+    let ranges = [
+        5.0,
+        6.0,
+        7.0,
+        f64::NAN,
+        5.1,
+        6.1,
+        0.0,
+        8.0,
+        f64::NAN,
+        f64::NAN,
+        0.0,
+        0.0,
+    ];
     let pose = [0.0, 1.0, 2.0, 0.0, 0.1, 0.2, 4.7, 4.7, 4.8];
     (
         write_doubles(&[("angles_baza", 4, 3, &angles)]).unwrap(),
@@ -74,7 +98,11 @@ fn small_well_formed_files_parse() {
     assert_eq!(counts, vec![(3, 1), (3, 1), (0, 4)]);
     let (pairs, skipped) = ds.consecutive_pairs();
     assert_eq!(pairs.len(), 1);
-    assert!(skipped[0].reason.contains("scan 2 has 0 valid returns"), "{}", skipped[0].reason);
+    assert!(
+        skipped[0].reason.contains("scan 2 has 0 valid returns"),
+        "{}",
+        skipped[0].reason
+    );
     assert_eq!(ds.reference.unwrap()[1].y_m, 0.1);
 }
 
@@ -97,11 +125,17 @@ fn mismatched_shapes_are_refused() {
     let (a, _, g) = small();
     let r = write_doubles(&[("ranges_baza", 4, 2, &[1.0; 8])]).unwrap();
     let e = parse(&a, &r, &g).unwrap_err();
-    assert!(matches!(&e, DatasetError::Shape { name, got, .. } if name == "ranges_baza" && got == &vec![4, 2]), "{e}");
+    assert!(
+        matches!(&e, DatasetError::Shape { name, got, .. } if name == "ranges_baza" && got == &vec![4, 2]),
+        "{e}"
+    );
     let (a, r, _) = small();
     let g = write_doubles(&[("slam_pose", 2, 3, &[0.0; 6])]).unwrap();
     let e = parse(&a, &r, &g).unwrap_err();
-    assert!(matches!(&e, DatasetError::Shape { name, .. } if name == "slam_pose"), "{e}");
+    assert!(
+        matches!(&e, DatasetError::Shape { name, .. } if name == "slam_pose"),
+        "{e}"
+    );
     assert!(e.to_string().contains("gps.mat"), "{e}");
 }
 
@@ -118,7 +152,10 @@ fn bad_values_are_refused() {
     let mut pose = [0.0; 9];
     pose[4] = f64::INFINITY;
     let g = write_doubles(&[("slam_pose", 3, 3, &pose)]).unwrap();
-    assert!(matches!(parse(&a, &r, &g), Err(DatasetError::BadValue { .. })));
+    assert!(matches!(
+        parse(&a, &r, &g),
+        Err(DatasetError::BadValue { .. })
+    ));
 }
 
 #[test]
@@ -126,32 +163,77 @@ fn truncated_empty_and_foreign_files_are_parse_errors() {
     let (a, r, g) = small();
     for cut in [0, 10, 127, 128, 140, a.len() / 2, a.len() - 3] {
         let e = parse(&a[..cut], &r, &g).unwrap_err();
-        assert!(matches!(&e, DatasetError::MatParse { .. } | DatasetError::MissingVariable { .. }), "cut {cut}: {e}");
+        assert!(
+            matches!(
+                &e,
+                DatasetError::MatParse { .. } | DatasetError::MissingVariable { .. }
+            ),
+            "cut {cut}: {e}"
+        );
     }
     let mut foreign = b"PK\x03\x04 this is a zip".to_vec();
     foreign.resize(300, 0);
-    assert!(matches!(parse(&a, &foreign, &g), Err(DatasetError::MatParse { .. })));
+    assert!(matches!(
+        parse(&a, &foreign, &g),
+        Err(DatasetError::MatParse { .. })
+    ));
 }
 
 #[test]
 fn truncated_real_file_is_a_parse_error() {
     let Some(dir) = real_dir() else { return };
     let bytes = std::fs::read(dir.join("ranges.mat")).unwrap();
-    let (a, g) = (std::fs::read(dir.join("angles.mat")).unwrap(), std::fs::read(dir.join("gps.mat")).unwrap());
+    let (a, g) = (
+        std::fs::read(dir.join("angles.mat")).unwrap(),
+        std::fs::read(dir.join("gps.mat")).unwrap(),
+    );
     for cut in [200, bytes.len() / 3, bytes.len() - 1] {
         let e = parse(&a, &bytes[..cut], &g).unwrap_err();
-        assert!(matches!(&e, DatasetError::MatParse { .. } | DatasetError::MissingVariable { .. }), "cut {cut}: {e}");
+        assert!(
+            matches!(
+                &e,
+                DatasetError::MatParse { .. } | DatasetError::MissingVariable { .. }
+            ),
+            "cut {cut}: {e}"
+        );
     }
 }
 
 #[test]
 fn missing_directory_says_where_it_looked_and_how_to_fetch() {
-    let looked = marina::candidate_dirs(Some(Path::new("/nonexistent/a")), Some(Path::new("/nonexistent/b")));
-    assert_eq!(looked[0], Path::new("/nonexistent/a/marina"));
-    assert_eq!(looked[2], Path::new("/nonexistent/b/marina"));
+    // An explicit --data-dir is the only place looked at; without it, the environment
+    // variable and then ./datasets.
+    let explicit = marina::candidate_dirs(Some(Path::new("/nonexistent/a")), Some(Path::new("/x")));
+    assert_eq!(
+        explicit,
+        vec![
+            Path::new("/nonexistent/a/marina"),
+            Path::new("/nonexistent/a")
+        ]
+    );
+    let looked = marina::candidate_dirs(None, Some(Path::new("/nonexistent/b")));
+    assert_eq!(looked[0], Path::new("/nonexistent/b/marina"));
+    assert_eq!(looked[2], Path::new("datasets/marina"));
     let err = marina::load(Path::new("/nonexistent/a"), &MarinaOptions::default()).unwrap_err();
     assert!(matches!(err, DatasetError::Io { .. }));
-    let e = DatasetError::NotFound { dataset: "marina", looked, hint: marina::FETCH_HINT.into() };
+    let e = DatasetError::NotFound {
+        dataset: "marina",
+        looked,
+        hint: marina::FETCH_HINT.into(),
+    };
     let msg = e.to_string();
-    assert!(msg.contains("/nonexistent/b/marina") && msg.contains("fetch-marina.sh"), "{msg}");
+    assert!(
+        msg.contains("/nonexistent/b/marina") && msg.contains("fetch-marina.sh"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn every_file_has_a_pinned_checksum() {
+    for (file, _) in marina::FILES {
+        let sum = marina::pinned_sha256(file).unwrap_or_else(|| panic!("{file} is not pinned"));
+        assert_eq!(sum.len(), 64);
+        assert!(sum.chars().all(|c| c.is_ascii_hexdigit()));
+    }
+    assert_eq!(marina::pinned_sha256("other.mat"), None);
 }
