@@ -1,0 +1,99 @@
+//! The evaluation harness behind `icp-eval`: runs variants over scan pairs in parallel and
+//! reports like the paper (Table 1, Figs. 12–16) and better (robust statistics, reference
+//! checks, pose errors, TUM trajectories).
+//!
+//! Flow: [`evaluate`] runs and builds a [`report::RunReport`]; [`write_outputs`] renders every
+//! file from it.
+#![forbid(unsafe_code)]
+
+use std::path::{Path, PathBuf};
+
+use datasets::{Dataset, DatasetError};
+use icp_core::IcpError;
+use indicatif::ProgressBar;
+
+pub mod output;
+pub mod plots;
+pub mod published;
+pub mod reference;
+pub mod report;
+pub mod runner;
+pub mod stats;
+
+pub use report::{EvalSetup, OffsetChoice, RunReport};
+
+/// Errors of the harness.
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    /// A file could not be written or read.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A report could not be serialized.
+    #[error("serialization failed: {0}")]
+    Serialize(String),
+    /// A figure could not be drawn.
+    #[error("figure {figure}: {what}")]
+    Plot { figure: String, what: String },
+    /// The data could not be loaded.
+    #[error(transparent)]
+    Dataset(#[from] DatasetError),
+    /// A variant could not be built.
+    #[error(transparent)]
+    Icp(#[from] IcpError),
+}
+
+/// Runs every variant of `setup` over every consecutive pair of `ds` and builds the report.
+pub fn evaluate(
+    ds: &Dataset,
+    setup: &EvalSetup,
+    progress: &ProgressBar,
+) -> Result<RunReport, EvalError> {
+    let (pairs, skipped) = ds.consecutive_pairs();
+    let registrars = setup
+        .variants
+        .iter()
+        .map(|v| v.build(&setup.config))
+        .collect::<Result<Vec<_>, _>>()?;
+    progress.set_length((registrars.len() * pairs.len()) as u64);
+    let runs = runner::run_all(ds, &pairs, &registrars, progress);
+    progress.finish_and_clear();
+    Ok(report::build(ds, &pairs, skipped, setup, &runs))
+}
+
+/// Writes `summary.json`, `pairs.csv`, `table.md`, `config.json`, one TUM trajectory per
+/// variant and (unless `plots` is false) the figures into `dir`.
+pub fn write_outputs(
+    dir: &Path,
+    ds: &Dataset,
+    report: &RunReport,
+    plots: bool,
+) -> Result<(), EvalError> {
+    std::fs::create_dir_all(dir).map_err(|source| EvalError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    output::write_atomic(
+        &dir.join("summary.json"),
+        output::summary_json(report)?.as_bytes(),
+    )?;
+    output::write_atomic(&dir.join("pairs.csv"), &output::pairs_csv(report)?)?;
+    output::write_atomic(&dir.join("table.md"), output::table_md(report).as_bytes())?;
+    let config = serde_json::to_string_pretty(&report.config)
+        .map_err(|e| EvalError::Serialize(e.to_string()))?
+        + "\n";
+    output::write_atomic(&dir.join("config.json"), config.as_bytes())?;
+    for (i, v) in report.variants.iter().enumerate() {
+        output::write_atomic(
+            &dir.join(format!("trajectory_{}.tum", v.name)),
+            output::tum(report, i).as_bytes(),
+        )?;
+    }
+    if plots {
+        plots::write_all(dir, ds, report)?;
+    }
+    Ok(())
+}

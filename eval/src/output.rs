@@ -1,0 +1,260 @@
+//! Writes a [`RunReport`] to its files. Every file is written to a temporary name and then
+//! renamed, so an interrupted run never leaves a half-written file behind.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::published;
+use crate::report::{ErrorStats, RunReport};
+use crate::stats::Stats;
+use crate::EvalError;
+
+/// Writes `bytes` to `path` atomically (temporary file in the same directory, then rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), EvalError> {
+    let tmp = tmp_path(path);
+    std::fs::write(&tmp, bytes).map_err(|source| EvalError::Io {
+        path: tmp.clone(),
+        source,
+    })?;
+    std::fs::rename(&tmp, path).map_err(|source| EvalError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// The temporary name `write_atomic` uses for `path`.
+pub fn tmp_path(path: &Path) -> PathBuf {
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
+    name.push(".tmp");
+    path.with_file_name(name)
+}
+
+/// `summary.json`.
+pub fn summary_json(report: &RunReport) -> Result<String, EvalError> {
+    let mut s =
+        serde_json::to_string_pretty(report).map_err(|e| EvalError::Serialize(e.to_string()))?;
+    s.push('\n');
+    Ok(s)
+}
+
+/// `pairs.csv`: one row per variant and pair.
+pub fn pairs_csv(report: &RunReport) -> Result<Vec<u8>, EvalError> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    for r in &report.pairs {
+        w.serialize(r)
+            .map_err(|e| EvalError::Serialize(e.to_string()))?;
+    }
+    w.into_inner()
+        .map_err(|e| EvalError::Serialize(e.to_string()))
+}
+
+/// `trajectory_<variant>.tum`: `timestamp x y z qx qy qz qw` per chained pose.
+pub fn tum(report: &RunReport, variant: usize) -> String {
+    let mut s = String::new();
+    for (t, pose) in &report.trajectories[variant] {
+        let half = 0.5 * pose.rotation.angle();
+        let _ = writeln!(
+            s,
+            "{t:.6} {:.6} {:.6} 0 0 0 {:.9} {:.9}",
+            pose.translation.x,
+            pose.translation.y,
+            half.sin(),
+            half.cos()
+        );
+    }
+    s
+}
+
+fn cell(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "–".to_owned(), |v| format!("{v:.digits$}"))
+}
+
+fn stat(s: Option<Stats>, f: fn(&Stats) -> f64, digits: usize) -> String {
+    cell(s.as_ref().map(f), digits)
+}
+
+fn table1_rows(
+    out: &mut String,
+    report: &RunReport,
+    pick: fn(&crate::report::VariantSummary) -> &ErrorStats,
+) {
+    let _ = writeln!(out, "| method | pairs | SOG mean (m/s) | ΔCOG mean (°) | SOG std (m/s) | ΔCOG std (°) | SOG max (m/s) | ΔCOG max (°) |");
+    let _ = writeln!(
+        out,
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+    );
+    for v in &report.variants {
+        let e = pick(v);
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            v.name,
+            e.pairs,
+            stat(e.sog_err_mps, |s| s.mean, 3),
+            stat(e.dcog_err_deg, |s| s.mean, 2),
+            stat(e.sog_err_mps, |s| s.std, 3),
+            stat(e.dcog_err_deg, |s| s.std, 2),
+            stat(e.sog_err_mps, |s| s.max_signed, 3),
+            stat(e.dcog_err_deg, |s| s.max_signed, 2),
+        );
+    }
+}
+
+fn robust_rows(
+    out: &mut String,
+    report: &RunReport,
+    pick: fn(&crate::report::VariantSummary) -> &ErrorStats,
+) {
+    let _ = writeln!(out, "| method | SOG median \\|e\\| (m/s) | SOG RMSE (m/s) | SOG p95 \\|e\\| (m/s) | ΔCOG median \\|e\\| (°) | ΔCOG RMSE (°) | ΔCOG p95 \\|e\\| (°) |");
+    let _ = writeln!(out, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    for v in &report.variants {
+        let e = pick(v);
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            v.name,
+            stat(e.sog_err_mps, |s| s.median_abs, 3),
+            stat(e.sog_err_mps, |s| s.rmse, 3),
+            stat(e.sog_err_mps, |s| s.p95_abs, 3),
+            stat(e.dcog_err_deg, |s| s.median_abs, 2),
+            stat(e.dcog_err_deg, |s| s.rmse, 2),
+            stat(e.dcog_err_deg, |s| s.p95_abs, 2),
+        );
+    }
+}
+
+/// `table.md`: Table 1 laid out like the paper, the robust table, and for the marina data the
+/// published values beside ours.
+pub fn table_md(report: &RunReport) -> String {
+    let mut out = String::new();
+    let d = &report.dataset;
+    let _ = writeln!(
+        out,
+        "# {} — {} pairs of {} scans, Δt = {} s\n",
+        d.name, d.pairs, d.scans, d.dt_s
+    );
+    let _ = writeln!(
+        out,
+        "Errors are estimate minus reference. \"max\" is the signed value of largest magnitude.\n"
+    );
+    let r = &report.reference;
+    if let Some(o) = r.offset_estimate {
+        let _ = writeln!(
+            out,
+            "Reference time offset: estimated {} scans ({:.2} s; correlation score {:.3} vs {:.3} at 0; best lag {} scoring {:.3}, accepted only with a gain of {} or more; from {}); applied {} scans.\n",
+            o.scans,
+            o.seconds,
+            o.score,
+            o.score_at_zero,
+            o.best_lag_scans,
+            o.best_score,
+            o.min_score_gain,
+            r.offset_from_variant.as_deref().unwrap_or("–"),
+            r.offset_applied_scans
+        );
+    }
+    let _ = writeln!(out, "## Table 1 layout, all pairs\n");
+    table1_rows(&mut out, report, |v| &v.all_pairs);
+    let _ = writeln!(
+        out,
+        "\n## Table 1 layout, pairs with a plausible reference ({} of {}; {} flagged)\n",
+        r.plausible_pairs,
+        d.pairs,
+        r.flagged_pairs.len()
+    );
+    table1_rows(&mut out, report, |v| &v.plausible_reference);
+    let _ = writeln!(out, "\n## Robust statistics, all pairs\n");
+    robust_rows(&mut out, report, |v| &v.all_pairs);
+    let _ = writeln!(
+        out,
+        "\n## Robust statistics, pairs with a plausible reference\n"
+    );
+    robust_rows(&mut out, report, |v| &v.plausible_reference);
+    if report
+        .variants
+        .iter()
+        .any(|v| v.all_pairs.trans_err_m.is_some())
+    {
+        let _ = writeln!(
+            out,
+            "\n## Pose error against the rigid reference, all pairs\n"
+        );
+        let _ = writeln!(out, "| method | translation RMSE (m) | translation p95 (m) | rotation RMSE (°) | rotation p95 (°) | chained drift (m per 100 m) |");
+        let _ = writeln!(out, "| --- | ---: | ---: | ---: | ---: | ---: |");
+        for v in &report.variants {
+            let e = &v.all_pairs;
+            let _ = writeln!(
+                out,
+                "| {} | {} | {} | {} | {} | {} |",
+                v.name,
+                stat(e.trans_err_m, |s| s.rmse, 4),
+                stat(e.trans_err_m, |s| s.p95_abs, 4),
+                stat(e.rot_err_deg, |s| s.rmse, 3),
+                stat(e.rot_err_deg, |s| s.p95_abs, 3),
+                cell(v.trajectory.drift_m_per_100m, 2),
+            );
+        }
+    }
+    if d.name == "marina" {
+        let _ = writeln!(out, "\n## Published (Naus & Marchel 2019, Table 1: 865 scans every 0.2 s) beside ours (175 pairs every ~1 s, all pairs)\n");
+        let _ = writeln!(
+            out,
+            "| method | source | SOG mean | ΔCOG mean | SOG std | ΔCOG std | SOG max | ΔCOG max |"
+        );
+        let _ = writeln!(
+            out,
+            "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"
+        );
+        for v in &report.variants {
+            if let Some(p) = published::row(&v.name) {
+                let _ = writeln!(
+                    out,
+                    "| {} | paper | {:.3} | {:.2} | {:.3} | {:.2} | {:.3} | {:.2} |",
+                    v.name, p.sog_mean, p.dcog_mean, p.sog_std, p.dcog_std, p.sog_max, p.dcog_max
+                );
+            }
+            let e = &v.all_pairs;
+            let _ = writeln!(
+                out,
+                "| {} | ours | {} | {} | {} | {} | {} | {} |",
+                v.name,
+                stat(e.sog_err_mps, |s| s.mean, 3),
+                stat(e.dcog_err_deg, |s| s.mean, 2),
+                stat(e.sog_err_mps, |s| s.std, 3),
+                stat(e.dcog_err_deg, |s| s.std, 2),
+                stat(e.sog_err_mps, |s| s.max_signed, 3),
+                stat(e.dcog_err_deg, |s| s.max_signed, 2),
+            );
+        }
+    }
+    let failed: usize = report.variants.iter().map(|v| v.failures.len()).sum();
+    let _ = writeln!(
+        out,
+        "\nFailed registrations: {failed}. Skipped pairs: {}.",
+        d.skipped_pairs.len()
+    );
+    for s in &d.skipped_pairs {
+        let _ = writeln!(
+            out,
+            "- skipped {} → {}: {}",
+            s.pair.source, s.pair.reference, s.reason
+        );
+    }
+    if !r.flagged_pairs.is_empty() {
+        let _ = writeln!(
+            out,
+            "\nFlagged reference steps (left out of the \"plausible\" tables):\n"
+        );
+        for f in &r.flagged_pairs {
+            let _ = writeln!(
+                out,
+                "- pair {} ({} → {}): {}",
+                f.pair, f.source, f.reference, f.reason
+            );
+        }
+    }
+    out
+}

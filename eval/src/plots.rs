@@ -1,0 +1,504 @@
+//! The paper's figures, drawn from a [`RunReport`] with plotters, each as PNG and SVG:
+//! SOG and ΔCOG error against scan index (Figs. 12, 14), their histograms (Figs. 13, 15), the
+//! chained trajectories, and the maps made by placing every scan on them (Fig. 16).
+
+use std::path::Path;
+
+use datasets::Dataset;
+use nalgebra::Point2;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use crate::output::{tmp_path, write_atomic};
+use crate::report::{PairRecord, RunReport};
+use crate::EvalError;
+
+const FONT: &str = "sans-serif";
+const COLORS: [RGBColor; 6] = [
+    RGBColor(200, 40, 40),
+    RGBColor(230, 140, 20),
+    RGBColor(40, 140, 60),
+    RGBColor(30, 90, 200),
+    RGBColor(120, 60, 160),
+    RGBColor(90, 90, 90),
+];
+
+fn err<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// A figure that can be drawn on any plotters backend.
+trait Figure {
+    fn size(&self) -> (u32, u32);
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String>;
+}
+
+/// Renders `fig` to `<dir>/<stem>.png` and `<dir>/<stem>.svg`, atomically.
+fn save(dir: &Path, stem: &str, fig: &impl Figure) -> Result<(), EvalError> {
+    save_pair(dir, stem, fig, fig)
+}
+
+/// Like [`save`], with a lighter figure for the SVG (one element per point adds up).
+fn save_pair(
+    dir: &Path,
+    stem: &str,
+    fig: &impl Figure,
+    svg_fig: &impl Figure,
+) -> Result<(), EvalError> {
+    let plot_err = |what: String| EvalError::Plot {
+        figure: stem.to_owned(),
+        what,
+    };
+    let png = dir.join(format!("{stem}.png"));
+    let tmp = tmp_path(&png).with_extension("tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
+        fig.draw(&root).map_err(plot_err)?;
+        root.present().map_err(|e| plot_err(e.to_string()))?;
+    }
+    std::fs::rename(&tmp, &png).map_err(|source| EvalError::Io {
+        path: png.clone(),
+        source,
+    })?;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, svg_fig.size()).into_drawing_area();
+        svg_fig.draw(&root).map_err(plot_err)?;
+        root.present().map_err(|e| plot_err(e.to_string()))?;
+    }
+    write_atomic(&dir.join(format!("{stem}.svg")), svg.as_bytes())
+}
+
+/// Which error a figure shows.
+#[derive(Clone, Copy)]
+struct ErrorKind {
+    stem: &'static str,
+    label: &'static str,
+    get: fn(&PairRecord) -> Option<f64>,
+}
+
+const SOG: ErrorKind = ErrorKind {
+    stem: "sog_error",
+    label: "SOG error (m/s)",
+    get: |r| r.sog_err_mps,
+};
+const DCOG: ErrorKind = ErrorKind {
+    stem: "dcog_error",
+    label: "ΔCOG error (°)",
+    get: |r| r.dcog_err_deg,
+};
+
+/// Symmetric axis limit covering `values` (at least `floor`).
+fn sym_limit(values: impl Iterator<Item = f64>, floor: f64) -> f64 {
+    values.fold(floor, |m, v| m.max(v.abs())) * 1.05
+}
+
+struct ErrorVsScan<'a> {
+    report: &'a RunReport,
+    kind: ErrorKind,
+}
+
+impl Figure for ErrorVsScan<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1200, 220 * self.report.variants.len().max(1) as u32 + 60)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let title = format!(
+            "{} against scan index — {} (○: reference step flagged implausible)",
+            self.kind.label, self.report.dataset.name
+        );
+        let root = root.titled(&title, (FONT, 24)).map_err(err)?;
+        let n = self.report.variants.len().max(1);
+        let x_max = self.report.dataset.scans.max(2) as f64;
+        for (i, (panel, v)) in root
+            .split_evenly((n, 1))
+            .iter()
+            .zip(&self.report.variants)
+            .enumerate()
+        {
+            let pts: Vec<(f64, f64, bool)> = self
+                .report
+                .pairs
+                .iter()
+                .filter(|r| r.variant == v.name)
+                .filter_map(|r| (self.kind.get)(r).map(|e| (r.source as f64, e, r.ref_plausible)))
+                .collect();
+            let lim = sym_limit(pts.iter().map(|p| p.1), 1e-3);
+            let mut chart = ChartBuilder::on(panel)
+                .caption(&v.name, (FONT, 18))
+                .margin(6)
+                .x_label_area_size(32)
+                .y_label_area_size(70)
+                .build_cartesian_2d(0.0..x_max, -lim..lim)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("scan index")
+                .y_desc(self.kind.label)
+                .draw()
+                .map_err(err)?;
+            let color = COLORS[i % COLORS.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    pts.iter().map(|p| (p.0, p.1)),
+                    color.stroke_width(1),
+                ))
+                .map_err(err)?;
+            // Pairs with an implausible reference step: hollow black circles.
+            chart
+                .draw_series(
+                    pts.iter()
+                        .filter(|p| !p.2)
+                        .map(|p| Circle::new((p.0, p.1), 4, BLACK.stroke_width(1))),
+                )
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+struct Histograms<'a> {
+    report: &'a RunReport,
+    kind: ErrorKind,
+}
+
+impl Figure for Histograms<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1200, 900)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let title = format!(
+            "Histogram of the {} — {}",
+            self.kind.label, self.report.dataset.name
+        );
+        let root = root.titled(&title, (FONT, 24)).map_err(err)?;
+        let n = self.report.variants.len().max(1);
+        let cols = if n > 1 { 2 } else { 1 };
+        let rows = n.div_ceil(cols);
+        for (i, (panel, v)) in root
+            .split_evenly((rows, cols))
+            .iter()
+            .zip(&self.report.variants)
+            .enumerate()
+        {
+            let mut e: Vec<f64> = self
+                .report
+                .pairs
+                .iter()
+                .filter(|r| r.variant == v.name)
+                .filter_map(self.kind.get)
+                .collect();
+            e.sort_by(f64::total_cmp);
+            // Range: the 1st to 99th percentile, so a few gross failures do not flatten the rest.
+            let (lo, hi) = if e.is_empty() {
+                (-1.0, 1.0)
+            } else {
+                let lim = sym_limit(
+                    [
+                        crate::stats::quantile_sorted(&e, 0.01),
+                        crate::stats::quantile_sorted(&e, 0.99),
+                    ]
+                    .into_iter(),
+                    1e-3,
+                );
+                (-lim, lim)
+            };
+            const BINS: usize = 30;
+            let w = (hi - lo) / BINS as f64;
+            let mut counts = [0usize; BINS];
+            let mut outside = 0;
+            for &x in &e {
+                if x < lo || x > hi {
+                    outside += 1;
+                } else {
+                    counts[(((x - lo) / w) as usize).min(BINS - 1)] += 1;
+                }
+            }
+            let top = *counts.iter().max().unwrap_or(&1) as f64 * 1.1 + 1.0;
+            let caption = format!(
+                "{} (n = {}, {} outside the range)",
+                v.name,
+                e.len(),
+                outside
+            );
+            let mut chart = ChartBuilder::on(panel)
+                .caption(caption, (FONT, 16))
+                .margin(8)
+                .x_label_area_size(34)
+                .y_label_area_size(50)
+                .build_cartesian_2d(lo..hi, 0.0..top)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(self.kind.label)
+                .y_desc("pairs")
+                .draw()
+                .map_err(err)?;
+            let color = COLORS[i % COLORS.len()];
+            chart
+                .draw_series(counts.iter().enumerate().map(|(b, &c)| {
+                    let x0 = lo + b as f64 * w;
+                    Rectangle::new([(x0, 0.0), (x0 + w, c as f64)], color.mix(0.7).filled())
+                }))
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Bounds of a set of points, padded and made square.
+fn square_bounds(
+    points: impl Iterator<Item = (f64, f64)>,
+) -> (std::ops::Range<f64>, std::ops::Range<f64>) {
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (x, y) in points {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
+    if !x0.is_finite() {
+        return (-1.0..1.0, -1.0..1.0);
+    }
+    let half = 0.5 * (x1 - x0).max(y1 - y0) * 1.08 + 1.0;
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    (cx - half..cx + half, cy - half..cy + half)
+}
+
+struct Trajectories<'a> {
+    report: &'a RunReport,
+    reference: Option<Vec<(f64, f64)>>,
+}
+
+impl Figure for Trajectories<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1000, 1000)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let all = self
+            .report
+            .trajectories
+            .iter()
+            .flatten()
+            .map(|(_, p)| (p.translation.x, p.translation.y))
+            .chain(self.reference.iter().flatten().copied());
+        let (xr, yr) = square_bounds(all);
+        let caption = match &self.reference {
+            Some(_) => format!(
+                "Chained trajectories and reference — {}",
+                self.report.dataset.name
+            ),
+            None => format!(
+                "Chained trajectories (scan 0 frame; the reference is not a rigid pose) — {}",
+                self.report.dataset.name
+            ),
+        };
+        let mut chart = ChartBuilder::on(root)
+            .caption(caption, (FONT, 20))
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(xr, yr)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .draw()
+            .map_err(err)?;
+        if let Some(r) = &self.reference {
+            chart
+                .draw_series(LineSeries::new(r.iter().copied(), BLACK.stroke_width(3)))
+                .map_err(err)?
+                .label("reference")
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(3))
+                });
+        }
+        for (i, (v, t)) in self
+            .report
+            .variants
+            .iter()
+            .zip(&self.report.trajectories)
+            .enumerate()
+        {
+            let color = COLORS[i % COLORS.len()];
+            chart
+                .draw_series(LineSeries::new(
+                    t.iter().map(|(_, p)| (p.translation.x, p.translation.y)),
+                    color.stroke_width(2),
+                ))
+                .map_err(err)?
+                .label(format!("{} ({:.1} m)", v.name, v.trajectory.length_m))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    }
+}
+
+/// Most points drawn per map panel in the PNG (every n-th return beyond that).
+const MAP_MAX_POINTS_PNG: usize = 40_000;
+/// Most points per map panel in the SVG, where each point is an element.
+const MAP_MAX_POINTS_SVG: usize = 4_000;
+
+/// One map panel: a variant's name, its placed returns and its track.
+struct MapPanel {
+    name: String,
+    points: Vec<(f64, f64)>,
+    track: Vec<(f64, f64)>,
+}
+
+struct Maps<'a> {
+    report: &'a RunReport,
+    panels: Vec<MapPanel>,
+}
+
+impl Figure for Maps<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1000 * self.panels.len().max(1) as u32, 1000)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let title = format!("Maps from the chained scans — {}", self.report.dataset.name);
+        let root = root.titled(&title, (FONT, 24)).map_err(err)?;
+        let areas = root.split_evenly((1, self.panels.len().max(1)));
+        for (
+            area,
+            MapPanel {
+                name,
+                points,
+                track,
+            },
+        ) in areas.iter().zip(&self.panels)
+        {
+            let (xr, yr) = square_bounds(points.iter().chain(track).copied());
+            let mut chart = ChartBuilder::on(area)
+                .caption(name, (FONT, 20))
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(xr, yr)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("x (m)")
+                .y_desc("y (m)")
+                .draw()
+                .map_err(err)?;
+            chart
+                .draw_series(points.iter().map(|&p| Pixel::new(p, BLACK)))
+                .map_err(err)?;
+            chart
+                .draw_series(LineSeries::new(track.iter().copied(), RED.stroke_width(2)))
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// The map of one variant: every scan's returns placed on its chained pose.
+fn map_points(
+    ds: &Dataset,
+    report: &RunReport,
+    variant: usize,
+    max_points: usize,
+) -> Vec<(f64, f64)> {
+    let traj = &report.trajectories[variant];
+    let first = report
+        .pairs
+        .iter()
+        .find(|r| r.variant == report.variants[variant].name)
+        .map_or(0, |r| r.source);
+    let scans: Vec<usize> = std::iter::once(first)
+        .chain(
+            report
+                .pairs
+                .iter()
+                .filter(|r| r.variant == report.variants[variant].name)
+                .map(|r| r.reference),
+        )
+        .collect();
+    let total: usize = scans.iter().map(|&k| ds.scans[k].len()).sum();
+    let step = total.div_ceil(max_points).max(1);
+    let mut out = Vec::with_capacity(total / step + 1);
+    let mut i = 0;
+    for (&k, (_, pose)) in scans.iter().zip(traj) {
+        for ret in ds.scans[k].returns() {
+            if i % step == 0 {
+                let p = pose * Point2::new(ret.point.x, ret.point.y);
+                out.push((p.x, p.y));
+            }
+            i += 1;
+        }
+    }
+    out
+}
+
+/// Draws every figure of the report into `dir`.
+pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), EvalError> {
+    for kind in [SOG, DCOG] {
+        save(dir, kind.stem, &ErrorVsScan { report, kind })?;
+        save(
+            dir,
+            &format!("{}_hist", kind.stem),
+            &Histograms { report, kind },
+        )?;
+    }
+    let reference = if report.reference.rigid_pose {
+        ds.reference
+            .as_ref()
+            .map(|r| r.iter().map(|p| (p.x_m, p.y_m)).collect())
+    } else {
+        None
+    };
+    save(dir, "trajectory", &Trajectories { report, reference })?;
+    let names = ["H_ICP", "HD_ICP"];
+    let mut chosen: Vec<usize> = names
+        .iter()
+        .filter_map(|n| report.variants.iter().position(|v| v.name == *n))
+        .collect();
+    if chosen.is_empty() {
+        chosen = (0..report.variants.len().min(2)).collect();
+    }
+    let panels = |max_points: usize| -> Vec<_> {
+        chosen
+            .iter()
+            .map(|&vi| {
+                let track = report.trajectories[vi]
+                    .iter()
+                    .map(|(_, p)| (p.translation.x, p.translation.y))
+                    .collect();
+                MapPanel {
+                    name: report.variants[vi].name.clone(),
+                    points: map_points(ds, report, vi, max_points),
+                    track,
+                }
+            })
+            .collect()
+    };
+    let png = Maps {
+        report,
+        panels: panels(MAP_MAX_POINTS_PNG),
+    };
+    let svg = Maps {
+        report,
+        panels: panels(MAP_MAX_POINTS_SVG),
+    };
+    save_pair(dir, "map", &png, &svg)
+}

@@ -1,0 +1,279 @@
+//! The reference is not truth: its motion per pair, its time offset from the scans, and the
+//! steps that are implausible given their neighbours.
+
+use datasets::{Dataset, ScanPair};
+use icp_core::motion::wrap_deg;
+use icp_core::BearingSense;
+use nalgebra::Isometry2;
+use serde::{Deserialize, Serialize};
+
+/// The reference's motion between two scans.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RefMotion {
+    /// Reference speed over ground, m/s.
+    pub sog_mps: f64,
+    /// Reference heading change, degrees, clockwise positive.
+    pub dcog_deg: f64,
+    /// Reference heading at the source scan, degrees (navigational when the reference heading
+    /// grows clockwise).
+    pub hdg0_deg: f64,
+    /// The true `t_ref_src`, when the reference is a rigid 2D pose of the scanner.
+    pub t_ref_src: Option<Isometry2<f64>>,
+}
+
+/// The reference motion between scans `a` and `b` over `dt_s`; `None` when the dataset has no
+/// reference or an index is out of range.
+pub fn motion(ds: &Dataset, a: usize, b: usize, dt_s: f64) -> Option<RefMotion> {
+    let r = ds.reference.as_ref()?;
+    let (p, q) = (r.get(a)?, r.get(b)?);
+    let dh = wrap_deg((q.heading_rad - p.heading_rad).to_degrees());
+    let sign = match ds.reference_heading_sense {
+        BearingSense::Clockwise => 1.0,
+        BearingSense::CounterClockwise => -1.0,
+    };
+    let t_ref_src = match (p.scan_pose(), q.scan_pose()) {
+        (Some(pa), Some(pb)) => Some((pa.inverse() * pb).inverse()),
+        _ => None,
+    };
+    Some(RefMotion {
+        sog_mps: (q.x_m - p.x_m).hypot(q.y_m - p.y_m) / dt_s,
+        dcog_deg: sign * dh,
+        hdg0_deg: p.heading_rad.to_degrees(),
+        t_ref_src,
+    })
+}
+
+/// The estimated lag between the estimated and the reference motion series.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OffsetEstimate {
+    /// The estimated lag in scans: the reference of pair `k + scans` matches the estimate of
+    /// pair `k` (positive: the reference runs late). It is the best-scoring lag when that beats
+    /// lag 0 by at least `min_score_gain`, else 0: smooth motion correlates almost as well at
+    /// neighbouring lags, and a gain within the noise is no evidence of an offset.
+    pub scans: i64,
+    /// The same lag in seconds, from the nominal scan spacing.
+    pub seconds: f64,
+    /// Mean of the SOG and ΔCOG correlation coefficients at the estimated lag.
+    pub score: f64,
+    /// The same score at lag 0.
+    pub score_at_zero: f64,
+    /// The best-scoring lag, whether or not it was accepted.
+    pub best_lag_scans: i64,
+    /// Its score.
+    pub best_score: f64,
+    /// The lags searched, ± this many scans.
+    pub max_lag_scans: i64,
+    /// Smallest score gain over lag 0 that is accepted as an offset.
+    pub min_score_gain: f64,
+}
+
+/// Largest lag searched, scans.
+pub const MAX_LAG_SCANS: i64 = 5;
+/// Smallest gain of the correlation score over lag 0 accepted as evidence of an offset.
+pub const MIN_SCORE_GAIN: f64 = 0.05;
+
+/// Estimates the lag by cross-correlating the estimated and reference SOG and ΔCOG series
+/// (each correlation over the overlapping part; the score is their mean). `None` when the
+/// series are too short (< 10 overlapping values at some lag) or constant.
+pub fn estimate_offset(
+    est_sog: &[f64],
+    est_dcog: &[f64],
+    ref_sog: &[f64],
+    ref_dcog: &[f64],
+    dt_s: f64,
+) -> Option<OffsetEstimate> {
+    let score = |lag: i64| -> Option<f64> {
+        let a = pearson_lagged(est_sog, ref_sog, lag)?;
+        let b = pearson_lagged(est_dcog, ref_dcog, lag)?;
+        Some(0.5 * (a + b))
+    };
+    let score_at_zero = score(0)?;
+    let (best_lag, best_score) = (-MAX_LAG_SCANS..=MAX_LAG_SCANS)
+        .filter_map(|lag| score(lag).map(|s| (lag, s)))
+        .fold(
+            (0, score_at_zero),
+            |acc, (lag, s)| if s > acc.1 { (lag, s) } else { acc },
+        );
+    let (scans, score) = if best_score - score_at_zero >= MIN_SCORE_GAIN {
+        (best_lag, best_score)
+    } else {
+        (0, score_at_zero)
+    };
+    Some(OffsetEstimate {
+        scans,
+        seconds: scans as f64 * dt_s,
+        score,
+        score_at_zero,
+        best_lag_scans: best_lag,
+        best_score,
+        max_lag_scans: MAX_LAG_SCANS,
+        min_score_gain: MIN_SCORE_GAIN,
+    })
+}
+
+/// Pearson correlation of `est[k]` with `reference[k + lag]` over the overlap; non-finite
+/// values (failed pairs) are left out.
+fn pearson_lagged(est: &[f64], reference: &[f64], lag: i64) -> Option<f64> {
+    let pairs: Vec<(f64, f64)> = (0..est.len() as i64)
+        .filter_map(|k| {
+            let j = usize::try_from(k + lag).ok()?;
+            let (x, y) = (est[k as usize], *reference.get(j)?);
+            (x.is_finite() && y.is_finite()).then_some((x, y))
+        })
+        .collect();
+    if pairs.len() < 10 {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let (mx, my) = (
+        pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        pairs.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+    for (x, y) in &pairs {
+        sxy += (x - mx) * (y - my);
+        sxx += (x - mx).powi(2);
+        syy += (y - my).powi(2);
+    }
+    (sxx > 0.0 && syy > 0.0).then(|| sxy / (sxx * syy).sqrt())
+}
+
+/// Half-width of the rolling median window of the plausibility test, steps.
+pub const PLAUSIBILITY_HALF_WINDOW: usize = 3;
+/// A step is implausible when it departs from its neighbours' median by more than this many
+/// robust standard deviations (1.4826 × the median absolute departure over the whole run).
+pub const PLAUSIBILITY_THRESHOLD_SIGMA: f64 = 5.0;
+/// Floors of the robust scale, so a perfectly smooth reference does not flag rounding noise:
+/// 0.02 m/s and 0.2°/s.
+pub const SCALE_FLOOR_SOG_MPS: f64 = 0.02;
+/// See [`SCALE_FLOOR_SOG_MPS`].
+pub const SCALE_FLOOR_ROT_DPS: f64 = 0.2;
+
+/// A reference step flagged as implausible.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FlaggedStep {
+    /// Pair index (position in the run's pair list).
+    pub pair: usize,
+    /// Scan indices of the pair.
+    pub source: usize,
+    /// See `source`.
+    pub reference: usize,
+    /// What is implausible, with the numbers.
+    pub reason: String,
+}
+
+/// Flags reference steps whose speed or yaw rate departs from the rolling median of their
+/// neighbours (± [`PLAUSIBILITY_HALF_WINDOW`] steps) by more than
+/// [`PLAUSIBILITY_THRESHOLD_SIGMA`] robust standard deviations of all such departures.
+/// A repeated position (zero speed between moving neighbours) is caught this way.
+pub fn flag_implausible(pairs: &[ScanPair], sog_mps: &[f64], rot_dps: &[f64]) -> Vec<FlaggedStep> {
+    let sog_out = outliers(sog_mps, SCALE_FLOOR_SOG_MPS);
+    let rot_out = outliers(rot_dps, SCALE_FLOOR_ROT_DPS);
+    let mut flagged = Vec::new();
+    for (i, pair) in pairs.iter().enumerate() {
+        let mut why = Vec::new();
+        if let Some((dev, med)) = sog_out[i] {
+            why.push(format!(
+                "speed {:.3} m/s vs neighbours' median {:.3} m/s ({dev:.1} sigma)",
+                sog_mps[i], med
+            ));
+        }
+        if let Some((dev, med)) = rot_out[i] {
+            why.push(format!(
+                "yaw rate {:.2} deg/s vs neighbours' median {:.2} deg/s ({dev:.1} sigma)",
+                rot_dps[i], med
+            ));
+        }
+        if !sog_mps[i].is_finite() || !rot_dps[i].is_finite() {
+            why.push("no reference for this pair".into());
+        }
+        if !why.is_empty() {
+            flagged.push(FlaggedStep {
+                pair: i,
+                source: pair.source,
+                reference: pair.reference,
+                reason: why.join("; "),
+            });
+        }
+    }
+    flagged
+}
+
+/// Per value: `Some((departure in sigmas, neighbours' median))` when it is an outlier.
+fn outliers(x: &[f64], scale_floor: f64) -> Vec<Option<(f64, f64)>> {
+    let n = x.len();
+    let medians: Vec<f64> = (0..n)
+        .map(|i| {
+            let lo = i.saturating_sub(PLAUSIBILITY_HALF_WINDOW);
+            let hi = (i + PLAUSIBILITY_HALF_WINDOW + 1).min(n);
+            let mut w: Vec<f64> = (lo..hi)
+                .filter(|&j| j != i)
+                .map(|j| x[j])
+                .filter(|v| v.is_finite())
+                .collect();
+            icp_core::robust::median_in_place(&mut w).unwrap_or(f64::NAN)
+        })
+        .collect();
+    let mut dev: Vec<f64> = x
+        .iter()
+        .zip(&medians)
+        .map(|(v, m)| (v - m).abs())
+        .filter(|d| d.is_finite())
+        .collect();
+    let mad = icp_core::robust::median_in_place(&mut dev).unwrap_or(0.0);
+    let sigma = (1.4826 * mad).max(scale_floor);
+    x.iter()
+        .zip(&medians)
+        .map(|(v, m)| {
+            let d = (v - m).abs() / sigma;
+            (d > PLAUSIBILITY_THRESHOLD_SIGMA).then_some((d, *m))
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn offset_is_found_on_a_shifted_series() {
+        let f = |k: f64| (k * 0.37).sin() + 0.5 * (k * 0.11).cos();
+        let est: Vec<f64> = (0..100).map(|k| f(k as f64)).collect();
+        let est2: Vec<f64> = (0..100).map(|k| f(k as f64 * 1.7)).collect();
+        // The reference runs 2 scans late: reference[k + 2] = est[k].
+        let ref1: Vec<f64> = (0..100).map(|k| f(k as f64 - 2.0)).collect();
+        let ref2: Vec<f64> = (0..100).map(|k| f((k as f64 - 2.0) * 1.7)).collect();
+        let o = estimate_offset(&est, &est2, &ref1, &ref2, 0.2).unwrap();
+        assert_eq!(o.scans, 2);
+        assert!((o.seconds - 0.4).abs() < 1e-12);
+        assert!(o.score > 0.999 && o.score > o.score_at_zero);
+        assert!(estimate_offset(&est[..5], &est2[..5], &ref1[..5], &ref2[..5], 1.0).is_none());
+    }
+
+    #[test]
+    fn glitches_are_flagged_and_smooth_steps_are_not() {
+        let pairs: Vec<ScanPair> = (0..40)
+            .map(|k| ScanPair {
+                source: k,
+                reference: k + 1,
+            })
+            .collect();
+        let mut sog: Vec<f64> = (0..40)
+            .map(|k| 1.24 + 0.01 * (k as f64 * 0.3).sin())
+            .collect();
+        // A turn ramping up and down over five steps each, as a vessel turns.
+        let rot: Vec<f64> = (0..40)
+            .map(|k| {
+                0.1 + 3.0
+                    * ((k as f64 - 8.0) / 5.0).clamp(0.0, 1.0)
+                    * ((26.0 - k as f64) / 5.0).clamp(0.0, 1.0)
+            })
+            .collect();
+        sog[7] = 0.72; // a short step, as in the marina reference
+        sog[30] = 0.0; // a repeated position
+        let flagged = flag_implausible(&pairs, &sog, &rot);
+        let idx: Vec<usize> = flagged.iter().map(|f| f.pair).collect();
+        assert_eq!(idx, vec![7, 30], "{flagged:?}");
+        assert!(flagged[0].reason.contains("speed 0.720"));
+    }
+}

@@ -1,0 +1,595 @@
+//! The run report: one typed struct from which `summary.json`, `pairs.csv`, `table.md`, the
+//! TUM trajectories and the figures are all rendered.
+
+use datasets::{Dataset, FileProvenance, ScanPair, SkippedPair};
+use icp_core::motion::{wrap_deg, MovementParams};
+use icp_core::variants::{Variant, VariantConfig};
+use icp_core::{BearingSense, SensorModel, Termination};
+use nalgebra::Isometry2;
+use serde::{Deserialize, Serialize};
+
+use crate::reference::{self, FlaggedStep, OffsetEstimate};
+use crate::runner::PairRun;
+use crate::stats::{median_p95, Stats};
+
+/// Version of the `summary.json` layout; bump it when a field changes meaning or goes away.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// How the reference is aligned in time with the scans.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "mode", content = "scans", rename_all = "snake_case")]
+pub enum OffsetChoice {
+    /// Apply this many scans (0: none).
+    Fixed(i64),
+    /// Apply the estimated offset.
+    Auto,
+}
+
+impl std::str::FromStr for OffsetChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(Self::Auto);
+        }
+        s.parse::<i64>()
+            .map(Self::Fixed)
+            .map_err(|_| format!("expected an integer number of scans or 'auto', got {s:?}"))
+    }
+}
+
+/// One row of `pairs.csv`: one variant on one pair. Unknown values are empty cells.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairRecord {
+    /// Variant name.
+    pub variant: String,
+    /// Pair index in the run.
+    pub pair: usize,
+    /// Scan k.
+    pub source: usize,
+    /// Scan k+1.
+    pub reference: usize,
+    /// Time between the scans, s.
+    pub dt_s: f64,
+    /// `ok`, or `failed: <reason>`.
+    pub status: String,
+    /// Whether the mean pair distance settled.
+    pub converged: bool,
+    /// Minimisation steps.
+    pub iterations: usize,
+    /// Pairs in the last step.
+    pub n_pairs: usize,
+    /// Sum of the final weights.
+    pub weight_sum: Option<f64>,
+    /// Final mean pair distance, m.
+    pub mean_dist_m: Option<f64>,
+    /// Registered `t_ref_src`: translation x, m.
+    pub tx_m: Option<f64>,
+    /// Registered `t_ref_src`: translation y, m.
+    pub ty_m: Option<f64>,
+    /// Registered `t_ref_src`: rotation, degrees.
+    pub theta_deg: Option<f64>,
+    /// Estimated SOG, m/s.
+    pub sog_est_mps: Option<f64>,
+    /// Reference SOG, m/s.
+    pub sog_ref_mps: Option<f64>,
+    /// SOG error (estimate − reference), m/s.
+    pub sog_err_mps: Option<f64>,
+    /// Estimated ΔCOG (heading change, clockwise positive), degrees.
+    pub dcog_est_deg: Option<f64>,
+    /// Reference ΔCOG, degrees.
+    pub dcog_ref_deg: Option<f64>,
+    /// ΔCOG error, degrees, wrapped to (−180, 180].
+    pub dcog_err_deg: Option<f64>,
+    /// Estimated rate of turn, °/s.
+    pub rot_est_dps: Option<f64>,
+    /// Reference rate of turn, °/s.
+    pub rot_ref_dps: Option<f64>,
+    /// ‖t_est − t_true‖ of `t_ref_src`, m, where the reference is a rigid 2D pose.
+    pub trans_err_m: Option<f64>,
+    /// Rotation error of `t_ref_src`, degrees, where the reference is a rigid 2D pose.
+    pub rot_err_deg: Option<f64>,
+    /// False when the reference step is flagged as implausible (or absent).
+    pub ref_plausible: bool,
+    /// Wall time of the registration, µs (not reproducible; last column so checks can drop it).
+    pub time_us: f64,
+}
+
+/// Error statistics over one set of pairs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ErrorStats {
+    /// Pairs counted.
+    pub pairs: usize,
+    /// SOG error, m/s.
+    pub sog_err_mps: Option<Stats>,
+    /// ΔCOG error, degrees.
+    pub dcog_err_deg: Option<Stats>,
+    /// Translation error of `t_ref_src`, m (relative pose error at one step).
+    pub trans_err_m: Option<Stats>,
+    /// Rotation error of `t_ref_src`, degrees.
+    pub rot_err_deg: Option<Stats>,
+}
+
+/// The chained trajectory's figures.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrajectoryStats {
+    /// Length of the estimated track, m.
+    pub length_m: f64,
+    /// Pairs that failed and were bridged by the identity.
+    pub gaps: usize,
+    /// Distance between the chained end point and the reference end point, m.
+    pub end_point_error_m: Option<f64>,
+    /// End-point error per 100 m of reference track, m (i.e. percent).
+    pub drift_m_per_100m: Option<f64>,
+    /// Why the drift is not given, when it is not.
+    pub note: Option<String>,
+}
+
+/// A failed pair.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Failure {
+    /// Pair index.
+    pub pair: usize,
+    /// The error.
+    pub reason: String,
+}
+
+/// Timing of one variant (not reproducible; kept in its own field).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Timing {
+    /// Median time per registration, µs.
+    pub median_us: f64,
+    /// 95th percentile, µs.
+    pub p95_us: f64,
+}
+
+/// Everything about one variant's run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VariantSummary {
+    /// Variant name.
+    pub name: String,
+    /// Pairs registered.
+    pub pairs_ok: usize,
+    /// Pairs that failed, with their reasons.
+    pub failures: Vec<Failure>,
+    /// Fraction of the registered pairs that converged.
+    pub converged_fraction: f64,
+    /// Mean iterations.
+    pub iterations_mean: f64,
+    /// Largest iteration count.
+    pub iterations_max: usize,
+    /// Over every registered pair with a reference.
+    pub all_pairs: ErrorStats,
+    /// Over the registered pairs whose reference step is plausible.
+    pub plausible_reference: ErrorStats,
+    /// The chained trajectory.
+    pub trajectory: TrajectoryStats,
+    /// Wall time per registration.
+    pub timing: Option<Timing>,
+}
+
+/// What the dataset was.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetInfo {
+    /// Name.
+    pub name: String,
+    /// Description and citation.
+    pub description: String,
+    /// Files read, with checksums.
+    pub files: Vec<FileProvenance>,
+    /// Scans.
+    pub scans: usize,
+    /// Pairs registered.
+    pub pairs: usize,
+    /// Consecutive pairs not registered, with reasons.
+    pub skipped_pairs: Vec<SkippedPair>,
+    /// Nominal time between scans, s.
+    pub dt_s: f64,
+    /// Sense of the scanner's bearings.
+    pub bearing_sense: BearingSense,
+    /// Sense of the reference heading.
+    pub reference_heading_sense: BearingSense,
+}
+
+/// The reference's trustworthiness.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceInfo {
+    /// Whether the dataset has a reference at all.
+    pub available: bool,
+    /// Whether it is a rigid 2D pose of the scanner (translation/rotation errors need it).
+    pub rigid_pose: bool,
+    /// Estimated lag between estimate and reference.
+    pub offset_estimate: Option<OffsetEstimate>,
+    /// How the offset was chosen.
+    pub offset_choice: OffsetChoice,
+    /// The offset applied, scans.
+    pub offset_applied_scans: i64,
+    /// Which variant's estimates the offset was estimated from.
+    pub offset_from_variant: Option<String>,
+    /// Reference steps flagged as implausible.
+    pub flagged_pairs: Vec<FlaggedStep>,
+    /// Pairs whose reference step is plausible.
+    pub plausible_pairs: usize,
+}
+
+/// The configuration that produced the run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunConfig {
+    /// Variants, in run order.
+    pub variants: Vec<Variant>,
+    /// Stages and parameters shared by the variants.
+    pub variant_config: VariantConfig,
+    /// The sensor model used for the weights (same as in `variant_config`).
+    pub sensor: SensorModel,
+    /// Convergence rule.
+    pub termination: Termination,
+}
+
+/// The whole run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunReport {
+    /// Layout version of this file.
+    pub schema_version: u32,
+    /// Tool name and version.
+    pub tool: String,
+    /// The data.
+    pub dataset: DatasetInfo,
+    /// The configuration.
+    pub config: RunConfig,
+    /// The reference.
+    pub reference: ReferenceInfo,
+    /// One summary per variant, in run order.
+    pub variants: Vec<VariantSummary>,
+    /// One record per variant and pair (written to `pairs.csv`, not to `summary.json`).
+    #[serde(skip)]
+    pub pairs: Vec<PairRecord>,
+    /// Chained poses `t_world_scan` per variant, for TUM files and figures.
+    #[serde(skip)]
+    pub trajectories: Vec<Vec<(f64, Isometry2<f64>)>>,
+}
+
+/// What to evaluate.
+#[derive(Clone, Debug)]
+pub struct EvalSetup {
+    /// Variants, in order.
+    pub variants: Vec<Variant>,
+    /// Their shared configuration.
+    pub config: VariantConfig,
+    /// Reference time alignment.
+    pub offset: OffsetChoice,
+}
+
+/// Builds the report from the runs (`runs[variant][pair]`).
+pub fn build(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    skipped: Vec<SkippedPair>,
+    setup: &EvalSetup,
+    runs: &[Vec<PairRun>],
+) -> RunReport {
+    let dts: Vec<f64> = pairs.iter().map(|p| ds.pair_dt_s(*p)).collect();
+    let estimates: Vec<Vec<Option<MovementParams>>> = runs
+        .iter()
+        .map(|rs| {
+            rs.iter()
+                .zip(pairs.iter().zip(&dts))
+                .map(|(r, (p, &dt))| {
+                    let reg = r.result.as_ref().ok()?;
+                    let hdg0 = reference::motion(ds, p.source, p.reference, dt)
+                        .map_or(0.0, |m| m.hdg0_deg);
+                    MovementParams::from_registration(&reg.t_ref_src, dt, hdg0, ds.bearing_sense)
+                        .ok()
+                })
+                .collect()
+        })
+        .collect();
+
+    // The reference at lag 0 and the offset estimate, from HD_ICP (or the last variant).
+    let ref_at = |lag: i64| -> Vec<Option<reference::RefMotion>> {
+        pairs
+            .iter()
+            .zip(&dts)
+            .map(|(p, &dt)| {
+                let a = usize::try_from(p.source as i64 + lag).ok()?;
+                let b = usize::try_from(p.reference as i64 + lag).ok()?;
+                reference::motion(ds, a, b, dt)
+            })
+            .collect()
+    };
+    let ref0 = ref_at(0);
+    let pivot = setup
+        .variants
+        .iter()
+        .position(|v| *v == Variant::HdIcp)
+        .unwrap_or(setup.variants.len().saturating_sub(1));
+    let series = |f: &dyn Fn(&MovementParams) -> f64| -> Vec<f64> {
+        estimates.get(pivot).map_or(Vec::new(), |e| {
+            e.iter().map(|m| m.as_ref().map_or(f64::NAN, f)).collect()
+        })
+    };
+    let ref_series = |f: &dyn Fn(&reference::RefMotion) -> f64| -> Vec<f64> {
+        ref0.iter()
+            .map(|m| m.as_ref().map_or(f64::NAN, f))
+            .collect()
+    };
+    let offset_estimate = reference::estimate_offset(
+        &series(&|m| m.sog_mps),
+        &series(&|m| m.dcog_deg),
+        &ref_series(&|m| m.sog_mps),
+        &ref_series(&|m| m.dcog_deg),
+        ds.dt_s,
+    );
+    let applied = match setup.offset {
+        OffsetChoice::Fixed(n) => n,
+        OffsetChoice::Auto => offset_estimate.map_or(0, |o| o.scans),
+    };
+    let refs = ref_at(applied);
+    let ref_sog: Vec<f64> = refs
+        .iter()
+        .map(|m| m.map_or(f64::NAN, |m| m.sog_mps))
+        .collect();
+    let ref_rot: Vec<f64> = refs
+        .iter()
+        .zip(&dts)
+        .map(|(m, dt)| m.map_or(f64::NAN, |m| m.dcog_deg / dt))
+        .collect();
+    let flagged = if ds.reference.is_some() {
+        reference::flag_implausible(pairs, &ref_sog, &ref_rot)
+    } else {
+        Vec::new()
+    };
+    let plausible: Vec<bool> = (0..pairs.len())
+        .map(|i| ds.reference.is_some() && !flagged.iter().any(|f| f.pair == i))
+        .collect();
+
+    let mut records = Vec::new();
+    let mut summaries = Vec::new();
+    let mut trajectories = Vec::new();
+    for (vi, variant) in setup.variants.iter().enumerate() {
+        let mut rows = Vec::with_capacity(pairs.len());
+        for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
+            rows.push(record(
+                variant.name(),
+                i,
+                *pair,
+                dts[i],
+                run,
+                estimates[vi][i],
+                refs[i],
+                plausible[i],
+            ));
+        }
+        trajectories.push(chain(ds, pairs, &runs[vi]));
+        summaries.push(summarize(
+            variant.name(),
+            &rows,
+            &runs[vi],
+            ds,
+            pairs,
+            trajectories.last().expect("just pushed"),
+        ));
+        records.extend(rows);
+    }
+    RunReport {
+        schema_version: SCHEMA_VERSION,
+        tool: format!("icp-eval {}", env!("CARGO_PKG_VERSION")),
+        dataset: DatasetInfo {
+            name: ds.provenance.name.clone(),
+            description: ds.provenance.description.clone(),
+            files: ds.provenance.files.clone(),
+            scans: ds.scans.len(),
+            pairs: pairs.len(),
+            skipped_pairs: skipped,
+            dt_s: ds.dt_s,
+            bearing_sense: ds.bearing_sense,
+            reference_heading_sense: ds.reference_heading_sense,
+        },
+        config: RunConfig {
+            variants: setup.variants.clone(),
+            variant_config: setup.config,
+            sensor: setup.config.sensor,
+            termination: setup.config.termination,
+        },
+        reference: ReferenceInfo {
+            available: ds.reference.is_some(),
+            rigid_pose: ds
+                .reference
+                .as_ref()
+                .is_some_and(|r| r.iter().all(|p| p.scan_yaw_rad.is_some())),
+            offset_estimate,
+            offset_choice: setup.offset,
+            offset_applied_scans: applied,
+            offset_from_variant: setup.variants.get(pivot).map(|v| v.name().to_owned()),
+            plausible_pairs: plausible.iter().filter(|&&p| p).count(),
+            flagged_pairs: flagged,
+        },
+        variants: summaries,
+        pairs: records,
+        trajectories,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn record(
+    variant: &str,
+    i: usize,
+    pair: ScanPair,
+    dt_s: f64,
+    run: &PairRun,
+    est: Option<MovementParams>,
+    reference: Option<reference::RefMotion>,
+    plausible: bool,
+) -> PairRecord {
+    let reg = run.result.as_ref().ok();
+    let both = |f: &dyn Fn(&MovementParams, &reference::RefMotion) -> f64| {
+        Some(f(est.as_ref()?, reference.as_ref()?))
+    };
+    let truth_err = reg
+        .zip(reference.and_then(|r| r.t_ref_src))
+        .map(|(reg, truth)| {
+            let dt = (reg.t_ref_src.translation.vector - truth.translation.vector).norm();
+            let dr =
+                wrap_deg((reg.t_ref_src.rotation.angle() - truth.rotation.angle()).to_degrees());
+            (dt, dr)
+        });
+    PairRecord {
+        variant: variant.to_owned(),
+        pair: i,
+        source: pair.source,
+        reference: pair.reference,
+        dt_s,
+        status: match &run.result {
+            Ok(_) => "ok".into(),
+            Err(e) => format!("failed: {e}"),
+        },
+        converged: reg.is_some_and(|r| r.converged()),
+        iterations: reg.map_or(0, |r| r.iterations),
+        n_pairs: reg.map_or(0, |r| r.n_pairs),
+        weight_sum: reg.map(|r| r.weight_sum),
+        mean_dist_m: reg.map(|r| r.mean_dist_m),
+        tx_m: reg.map(|r| r.t_ref_src.translation.x),
+        ty_m: reg.map(|r| r.t_ref_src.translation.y),
+        theta_deg: reg.map(|r| r.t_ref_src.rotation.angle().to_degrees()),
+        sog_est_mps: est.map(|m| m.sog_mps),
+        sog_ref_mps: reference.map(|r| r.sog_mps),
+        sog_err_mps: both(&|m, r| m.sog_mps - r.sog_mps),
+        dcog_est_deg: est.map(|m| m.dcog_deg),
+        dcog_ref_deg: reference.map(|r| r.dcog_deg),
+        dcog_err_deg: both(&|m, r| wrap_deg(m.dcog_deg - r.dcog_deg)),
+        rot_est_dps: est.map(|m| m.rot_dps),
+        rot_ref_dps: reference.map(|r| r.dcog_deg / dt_s),
+        trans_err_m: truth_err.map(|e| e.0),
+        rot_err_deg: truth_err.map(|e| e.1),
+        ref_plausible: plausible,
+        time_us: run.time_us,
+    }
+}
+
+fn error_stats<'a>(rows: impl Iterator<Item = &'a PairRecord> + Clone) -> ErrorStats {
+    let col = |f: fn(&PairRecord) -> Option<f64>| -> Option<Stats> {
+        let v: Vec<f64> = rows.clone().filter_map(f).collect();
+        Stats::of(&v)
+    };
+    ErrorStats {
+        pairs: rows.clone().count(),
+        sog_err_mps: col(|r| r.sog_err_mps),
+        dcog_err_deg: col(|r| r.dcog_err_deg),
+        trans_err_m: col(|r| r.trans_err_m),
+        rot_err_deg: col(|r| r.rot_err_deg),
+    }
+}
+
+fn summarize(
+    name: &str,
+    rows: &[PairRecord],
+    runs: &[PairRun],
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    traj: &[(f64, Isometry2<f64>)],
+) -> VariantSummary {
+    let ok: Vec<&PairRecord> = rows.iter().filter(|r| r.status == "ok").collect();
+    let with_ref = ok.iter().copied().filter(|r| r.sog_ref_mps.is_some());
+    let times: Vec<f64> = runs.iter().map(|r| r.time_us).collect();
+    let failures: Vec<Failure> = runs
+        .iter()
+        .enumerate()
+        .filter_map(|(i, r)| {
+            r.result.as_ref().err().map(|e| Failure {
+                pair: i,
+                reason: e.to_string(),
+            })
+        })
+        .collect();
+    VariantSummary {
+        name: name.to_owned(),
+        pairs_ok: ok.len(),
+        converged_fraction: if ok.is_empty() {
+            0.0
+        } else {
+            ok.iter().filter(|r| r.converged).count() as f64 / ok.len() as f64
+        },
+        iterations_mean: if ok.is_empty() {
+            0.0
+        } else {
+            ok.iter().map(|r| r.iterations as f64).sum::<f64>() / ok.len() as f64
+        },
+        iterations_max: ok.iter().map(|r| r.iterations).max().unwrap_or(0),
+        all_pairs: error_stats(with_ref.clone()),
+        plausible_reference: error_stats(with_ref.filter(|r| r.ref_plausible)),
+        trajectory: trajectory_stats(ds, pairs, traj, failures.len()),
+        timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
+        failures,
+    }
+}
+
+/// Chains the registrations into scanner poses `t_world_scan`, starting at the reference pose
+/// of the first scan when it is a rigid pose (else at the origin). A failed pair is bridged by
+/// the identity and counted as a gap.
+fn chain(ds: &Dataset, pairs: &[ScanPair], runs: &[PairRun]) -> Vec<(f64, Isometry2<f64>)> {
+    let Some(first) = pairs.first() else {
+        return Vec::new();
+    };
+    let start = ds
+        .reference
+        .as_ref()
+        .and_then(|r| r[first.source].scan_pose())
+        .unwrap_or_else(Isometry2::identity);
+    let time = |k: usize| ds.scans[k].timestamp_s().unwrap_or(k as f64 * ds.dt_s);
+    let mut poses = vec![(time(first.source), start)];
+    let mut pose = start;
+    for (pair, run) in pairs.iter().zip(runs) {
+        if let Ok(reg) = &run.result {
+            pose *= reg.t_ref_src.inverse();
+        }
+        poses.push((time(pair.reference), pose));
+    }
+    poses
+}
+
+fn trajectory_stats(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    traj: &[(f64, Isometry2<f64>)],
+    gaps: usize,
+) -> TrajectoryStats {
+    let length_m = traj
+        .windows(2)
+        .map(|w| (w[1].1.translation.vector - w[0].1.translation.vector).norm())
+        .sum();
+    let contiguous = pairs.windows(2).all(|w| w[0].reference == w[1].source);
+    let truth: Option<Vec<Isometry2<f64>>> = ds.reference.as_ref().and_then(|r| {
+        let first = pairs.first()?;
+        std::iter::once(first.source)
+            .chain(pairs.iter().map(|p| p.reference))
+            .map(|k| r[k].scan_pose())
+            .collect()
+    });
+    let (end_point_error_m, drift_m_per_100m, note) = match (truth, contiguous) {
+        (Some(t), true) if t.len() == traj.len() && !t.is_empty() => {
+            let ref_len: f64 = t
+                .windows(2)
+                .map(|w| (w[1].translation.vector - w[0].translation.vector).norm())
+                .sum();
+            let end = (traj[traj.len() - 1].1.translation.vector
+                - t[t.len() - 1].translation.vector)
+                .norm();
+            (
+                Some(end),
+                (ref_len > 0.0).then(|| 100.0 * end / ref_len),
+                None,
+            )
+        }
+        (Some(_), _) => (None, None, Some("the pairs are not contiguous".to_owned())),
+        (None, _) => (
+            None,
+            None,
+            Some("the reference is not a rigid 2D pose of the scanner".to_owned()),
+        ),
+    };
+    TrajectoryStats {
+        length_m,
+        gaps,
+        end_point_error_m,
+        drift_m_per_100m,
+        note,
+    }
+}

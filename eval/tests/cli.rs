@@ -1,0 +1,230 @@
+//! Runs the `icp-eval` binary on a small synthetic dataset and checks what it writes.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use eval::report::{PairRecord, RunReport};
+
+fn icp_eval(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn run_small(out: &Path, threads: &str, plots: bool) {
+    let mut args = vec![
+        "run",
+        "--dataset",
+        "synthetic:marina-like",
+        "--scans",
+        "24",
+        "--quiet",
+        "--threads",
+        threads,
+        "--out",
+    ];
+    args.push(out.to_str().unwrap());
+    if !plots {
+        args.push("--no-plots");
+    }
+    let o = icp_eval(&args);
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn read_pairs(dir: &Path) -> Vec<PairRecord> {
+    csv::Reader::from_path(dir.join("pairs.csv"))
+        .unwrap()
+        .deserialize()
+        .collect::<Result<_, _>>()
+        .unwrap()
+}
+
+#[test]
+fn every_output_exists_parses_and_agrees_with_the_csv() {
+    let dir = common::scratch_dir("cli_outputs");
+    run_small(&dir, "2", true);
+    let summary: RunReport =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary.schema_version, eval::report::SCHEMA_VERSION);
+    assert_eq!(summary.dataset.pairs, 23);
+    let rows = read_pairs(&dir);
+    assert_eq!(rows.len(), 4 * 23);
+    for v in &summary.variants {
+        let mine: Vec<&PairRecord> = rows.iter().filter(|r| r.variant == v.name).collect();
+        assert_eq!(mine.len(), 23);
+        // The summary's figures are the CSV columns' statistics, recomputed here by hand.
+        let sog: Vec<f64> = mine.iter().filter_map(|r| r.sog_err_mps).collect();
+        let mean = sog.iter().sum::<f64>() / sog.len() as f64;
+        let s = v.all_pairs.sog_err_mps.unwrap();
+        assert_eq!(s.n, sog.len());
+        assert!(
+            (s.mean - mean).abs() < 1e-12,
+            "{} {} vs {}",
+            v.name,
+            s.mean,
+            mean
+        );
+        let rms = (sog.iter().map(|e| e * e).sum::<f64>() / sog.len() as f64).sqrt();
+        assert!((s.rmse - rms).abs() < 1e-12);
+        let dcog_max = mine
+            .iter()
+            .filter_map(|r| r.dcog_err_deg)
+            .fold(0.0f64, |m, e| if e.abs() > m.abs() { e } else { m });
+        assert_eq!(v.all_pairs.dcog_err_deg.unwrap().max_signed, dcog_max);
+        let trans: Vec<f64> = mine.iter().filter_map(|r| r.trans_err_m).collect();
+        assert_eq!(trans.len(), 23, "the synthetic reference is a rigid pose");
+        let it_max = mine.iter().map(|r| r.iterations).max().unwrap();
+        assert_eq!(v.iterations_max, it_max);
+        // SOG error is estimate minus reference, row by row.
+        for r in &mine {
+            assert!(
+                (r.sog_est_mps.unwrap() - r.sog_ref_mps.unwrap() - r.sog_err_mps.unwrap()).abs()
+                    < 1e-12
+            );
+        }
+        let tum = std::fs::read_to_string(dir.join(format!("trajectory_{}.tum", v.name))).unwrap();
+        let lines: Vec<&str> = tum.lines().collect();
+        assert_eq!(lines.len(), 24);
+        assert!(lines
+            .iter()
+            .all(|l| l.split(' ').count() == 8 && l.split(' ').all(|f| f.parse::<f64>().is_ok())));
+    }
+    let table = std::fs::read_to_string(dir.join("table.md")).unwrap();
+    assert!(table.contains("| HD_ICP |") && table.contains("SOG median"));
+    let config: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("config.json")).unwrap()).unwrap();
+    assert_eq!(config["variant_config"]["matcher"], "kdtree");
+    for stem in [
+        "sog_error",
+        "dcog_error",
+        "sog_error_hist",
+        "dcog_error_hist",
+        "trajectory",
+        "map",
+    ] {
+        let png = std::fs::read(dir.join(format!("{stem}.png"))).unwrap();
+        assert!(png.starts_with(b"\x89PNG\r\n\x1a\n"), "{stem}.png");
+        let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap();
+        assert!(
+            svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"),
+            "{stem}.svg"
+        );
+    }
+    assert!(
+        !dir.join("summary.json.tmp").exists(),
+        "no temporary file is left behind"
+    );
+}
+
+/// Drops the timing fields, the only ones allowed to differ between runs.
+fn without_timing(dir: &Path) -> (String, serde_json::Value) {
+    let csv = std::fs::read_to_string(dir.join("pairs.csv")).unwrap();
+    let header = csv.lines().next().unwrap();
+    assert!(header.ends_with(",time_us"), "timing is the last column");
+    let csv: String = csv
+        .lines()
+        .map(|l| l.rsplit_once(',').unwrap().0.to_owned() + "\n")
+        .collect();
+    let mut json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    for v in json["variants"].as_array_mut().unwrap() {
+        v.as_object_mut().unwrap().remove("timing");
+    }
+    (csv, json)
+}
+
+#[test]
+fn one_and_two_threads_give_identical_results() {
+    let (a, b) = (common::scratch_dir("det_1"), common::scratch_dir("det_2"));
+    run_small(&a, "1", false);
+    run_small(&b, "2", false);
+    let (csv_a, json_a) = without_timing(&a);
+    let (csv_b, json_b) = without_timing(&b);
+    assert_eq!(csv_a, csv_b);
+    assert_eq!(json_a, json_b);
+    assert_eq!(
+        std::fs::read(a.join("table.md")).unwrap(),
+        std::fs::read(b.join("table.md")).unwrap()
+    );
+}
+
+#[test]
+fn bad_arguments_exit_2_with_a_message() {
+    let dir = common::scratch_dir("cli_bad");
+    let out = dir.to_str().unwrap();
+    let o = icp_eval(&["run", "--dataset", "nowhere", "--out", out]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown dataset"));
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "marina",
+        "--data-dir",
+        "/nonexistent",
+        "--out",
+        out,
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("/nonexistent/marina") && err.contains("fetch-marina.sh"),
+        "{err}"
+    );
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "synthetic",
+        "--sigma-alpha-deg",
+        "-1",
+        "--out",
+        out,
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "synthetic",
+        "--variants",
+        "X_ICP",
+        "--out",
+        out,
+    ]);
+    assert_eq!(o.status.code(), Some(2), "clap refuses an unknown variant");
+}
+
+#[test]
+fn reproduce_without_data_runs_the_synthetic_scenario_and_says_how_to_get_the_data() {
+    let dir = common::scratch_dir("reproduce_no_data");
+    let o = Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+        .args(["reproduce", "--quiet", "--no-plots", "--out", "out"])
+        .current_dir(&dir)
+        .env_remove(datasets::marina::DATA_DIR_ENV)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(
+        stderr.contains("skipping the marina data") && stderr.contains("fetch-marina.sh"),
+        "{stderr}"
+    );
+    assert!(
+        stdout.contains("# synthetic:paper") && stdout.contains("| HD_ICP |"),
+        "{stdout}"
+    );
+    assert!(dir.join("out/synthetic-paper/summary.json").is_file());
+    assert!(!dir.join("out/marina").exists());
+}
