@@ -98,6 +98,25 @@ impl<S, M, W, K, X> Icp<S, M, W, K, X> {
         }
     }
 
+    /// The same chain with another pair weighting.
+    pub fn with_weighting<W2>(self, weighting: W2) -> Icp<S, M, W2, K, X> {
+        Icp {
+            name: self.name,
+            selection: self.selection,
+            matcher: self.matcher,
+            weighting,
+            robust: self.robust,
+            minimizer: self.minimizer,
+            termination: self.termination,
+        }
+    }
+
+    /// The same chain under another name.
+    pub fn named(mut self, name: &str) -> Self {
+        self.name = name.to_owned();
+        self
+    }
+
     /// The same chain with another termination rule.
     pub fn with_termination(mut self, termination: Termination) -> Self {
         self.termination = termination;

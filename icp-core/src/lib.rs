@@ -54,6 +54,11 @@ pub mod variants;
 pub mod weighting;
 
 pub use error::IcpError;
+
+/// The README's Rust examples, compiled and run as doctests so the README stays true.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct ReadmeDoctests;
 pub use icp::{Icp, Registrar, Registration};
 pub use motion::{BearingSense, MovementParams};
 pub use scan::Scan;
