@@ -35,6 +35,13 @@ pub enum DatasetError {
         expected: String,
         got: Vec<usize>,
     },
+    /// A line of a text log that cannot be read.
+    #[error("{path}:{line}: {what}")]
+    Parse {
+        path: PathBuf,
+        line: usize,
+        what: String,
+    },
     /// A value that is not usable data (non-finite pose, negative range, ...).
     #[error("{path}: {what}")]
     BadValue { path: PathBuf, what: String },

@@ -3,6 +3,8 @@
 //! Loaders: [`marina`] (the paper's public MATLAB files).
 #![forbid(unsafe_code)]
 
+pub mod carmen;
+pub mod csvdir;
 pub mod dataset;
 pub mod error;
 pub mod marina;

@@ -29,6 +29,42 @@ enum Command {
     Reproduce(ReproduceArgs),
     /// Run chosen variants on one dataset.
     Run(RunArgs),
+    /// Generate a synthetic harbour dataset and write it in our CSV format.
+    Synth(SynthArgs),
+}
+
+#[derive(Args)]
+struct SynthArgs {
+    /// Scenario: paper (865 scans every 0.2 s) or marina-like (177 scans every 1 s).
+    #[arg(long, default_value = "paper")]
+    scenario: String,
+    /// Number of scans (default: the scenario's).
+    #[arg(long)]
+    scans: Option<usize>,
+    /// Time between scans, s.
+    #[arg(long)]
+    dt: Option<f64>,
+    /// Mean speed over ground, m/s.
+    #[arg(long)]
+    speed: Option<f64>,
+    /// Seed of the world and the noise.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Bearing standard deviation, degrees.
+    #[arg(long, default_value_t = SensorModel::SWEEP_SIGMA_ALPHA_DEG)]
+    sigma_alpha_deg: f64,
+    /// Exact returns (no range or bearing noise).
+    #[arg(long)]
+    no_noise: bool,
+    /// Fraction of spurious returns (spray, water).
+    #[arg(long)]
+    gross_error_fraction: Option<f64>,
+    /// Take each beam at its own time within the revolution.
+    #[arg(long)]
+    motion_distortion: bool,
+    /// Output directory (scans.csv, poses.csv, dataset.json).
+    #[arg(long)]
+    out: PathBuf,
 }
 
 #[derive(Args)]
@@ -58,9 +94,15 @@ struct ReproduceArgs {
 
 #[derive(Args)]
 struct RunArgs {
-    /// marina | synthetic[:paper|marina-like]
+    /// marina | synthetic[:paper|marina-like] | carmen:PATH (.log or .log.gz) | csv:DIR
     #[arg(long)]
     dataset: String,
+    /// CARMEN only: field of view of the laser, degrees.
+    #[arg(long, default_value_t = 180.0)]
+    carmen_fov_deg: f64,
+    /// CARMEN only: readings at or beyond this range are no-returns, metres.
+    #[arg(long, default_value_t = 50.0)]
+    carmen_max_range_m: f64,
     /// Directory of the marina files.
     #[arg(long)]
     data_dir: Option<PathBuf>,
@@ -70,18 +112,21 @@ struct RunArgs {
     /// Nearest-neighbour matcher: kdtree, delaunay or brute.
     #[arg(long, default_value_t = MatcherKind::Kdtree)]
     matcher: MatcherKind,
-    /// Time between scans, s (marina: nominal 1.0; synthetic: the scenario's).
+    /// Nominal time between scans, s, where scans carry no timestamps (marina: 1.0;
+    /// synthetic: the scenario's spacing).
     #[arg(long)]
     dt: Option<f64>,
-    /// Bearing standard deviation of the sensor model, degrees.
-    #[arg(long, default_value_t = SensorModel::SWEEP_SIGMA_ALPHA_DEG)]
-    sigma_alpha_deg: f64,
+    /// Bearing standard deviation of the sensor model behind the HM/HD weights, degrees
+    /// (default: the dataset's model; the data itself is not changed).
+    #[arg(long)]
+    sigma_alpha_deg: Option<f64>,
     /// Synthetic only: number of scans (default: the scenario's).
     #[arg(long)]
     scans: Option<usize>,
-    /// Seed of the point selection (and of the synthetic scenario).
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    /// Seed of the point selection (default 0) and, for synthetic data, of the scenario
+    /// (default: the scenario's own).
+    #[arg(long)]
+    seed: Option<u64>,
     /// Reference time offset in scans, or `auto` to apply the estimated one.
     #[arg(long, default_value = "0")]
     reference_offset: OffsetChoice,
@@ -106,7 +151,41 @@ fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Reproduce(args) => reproduce(args),
         Command::Run(args) => run_one(args),
+        Command::Synth(args) => synth(args),
     }
+}
+
+fn synth(args: SynthArgs) -> Result<ExitCode> {
+    let mut scenario = Scenario::by_name(&args.scenario).with_context(|| {
+        format!(
+            "unknown scenario {:?}: expected paper or marina-like",
+            args.scenario
+        )
+    })?;
+    scenario.scanner.sensor = SensorModel::sweep_with_sigma_alpha_deg(args.sigma_alpha_deg)
+        .context("--sigma-alpha-deg")?;
+    scenario.scanner.noise = !args.no_noise;
+    scenario.scanner.motion_distortion = args.motion_distortion;
+    if let Some(n) = args.scans {
+        scenario.n_scans = n;
+    }
+    if let Some(dt) = args.dt {
+        scenario.dt_s = dt;
+    }
+    if let Some(v) = args.speed {
+        scenario.speed_mps = v;
+    }
+    if let Some(seed) = args.seed {
+        scenario.seed = seed;
+    }
+    if let Some(f) = args.gross_error_fraction {
+        scenario.scanner.gross_error_fraction = f;
+    }
+    let ds = synthetic::generate(&scenario)?;
+    datasets::csvdir::write(&args.out, &ds)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    println!("{} scans written to {}", ds.scans.len(), args.out.display());
+    Ok(ExitCode::SUCCESS)
 }
 
 fn progress(quiet: bool, label: &str) -> ProgressBar {
@@ -178,15 +257,23 @@ fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
 }
 
 fn run_one(args: RunArgs) -> Result<ExitCode> {
-    let sensor = SensorModel::sweep_with_sigma_alpha_deg(args.sigma_alpha_deg)
-        .context("--sigma-alpha-deg")?;
-    let ds = load_dataset(&args, sensor)?;
+    let mut ds = load_dataset(&args)?;
+    if let Some(deg) = args.sigma_alpha_deg {
+        let sensor = SensorModel {
+            sigma_alpha_rad: deg.to_radians(),
+            ..ds.sensor
+        };
+        sensor.validate().context("--sigma-alpha-deg")?;
+        ds.sensor = sensor;
+    }
     let setup = EvalSetup {
         variants: args.variants.clone(),
         config: VariantConfig {
-            sensor,
+            sensor: ds.sensor,
             matcher: args.matcher,
-            selection: SelectionKind::EqualCount { seed: args.seed },
+            selection: SelectionKind::EqualCount {
+                seed: args.seed.unwrap_or(0),
+            },
             ..VariantConfig::default()
         },
         offset: args.reference_offset,
@@ -201,21 +288,22 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn load_dataset(args: &RunArgs, sensor: SensorModel) -> Result<Dataset> {
+fn load_dataset(args: &RunArgs) -> Result<Dataset> {
     let (kind, rest) = args.dataset.split_once(':').unwrap_or((&args.dataset, ""));
     match kind {
         "marina" => {
             let dir = marina::find_data_dir(args.data_dir.as_deref())?;
             let dt_s = args.dt.unwrap_or(1.0);
-            Ok(marina::load(&dir, &marina::MarinaOptions { dt_s, sensor })?)
+            Ok(marina::load(&dir, &marina::MarinaOptions { dt_s, ..Default::default() })?)
         }
         "synthetic" => {
             let name = if rest.is_empty() { "paper" } else { rest };
             let mut scenario = Scenario::by_name(name).with_context(|| {
                 format!("unknown synthetic scenario {name:?}: expected paper or marina-like")
             })?;
-            scenario.seed = args.seed;
-            scenario.scanner.sensor = sensor;
+            if let Some(seed) = args.seed {
+                scenario.seed = seed;
+            }
             if let Some(dt) = args.dt {
                 scenario.dt_s = dt;
             }
@@ -224,6 +312,25 @@ fn load_dataset(args: &RunArgs, sensor: SensorModel) -> Result<Dataset> {
             }
             Ok(synthetic::generate(&scenario)?)
         }
-        other => bail!("unknown dataset {other:?}: expected marina or synthetic[:scenario]"),
+        "carmen" if !rest.is_empty() => {
+            let options = datasets::carmen::CarmenOptions {
+                fov_deg: args.carmen_fov_deg,
+                max_range_m: args.carmen_max_range_m,
+                ..Default::default()
+            };
+            let mut ds = datasets::carmen::load(Path::new(rest), &options)?;
+            if let Some(dt) = args.dt {
+                ds.dt_s = dt;
+            }
+            Ok(ds)
+        }
+        "csv" if !rest.is_empty() => {
+            let mut ds = datasets::csvdir::load(Path::new(rest))?;
+            if let Some(dt) = args.dt {
+                ds.dt_s = dt;
+            }
+            Ok(ds)
+        }
+        other => bail!("unknown dataset {other:?}: expected marina, synthetic[:scenario], carmen:PATH or csv:DIR"),
     }
 }

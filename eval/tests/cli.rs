@@ -228,3 +228,44 @@ fn reproduce_without_data_runs_the_synthetic_scenario_and_says_how_to_get_the_da
     assert!(dir.join("out/synthetic-paper/summary.json").is_file());
     assert!(!dir.join("out/marina").exists());
 }
+
+#[test]
+fn synth_writes_a_dataset_that_run_reads_back() {
+    let dir = common::scratch_dir("synth_then_run");
+    let data = dir.join("data");
+    let o = icp_eval(&[
+        "synth",
+        "--scenario",
+        "marina-like",
+        "--scans",
+        "12",
+        "--out",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["scans.csv", "poses.csv", "dataset.json"] {
+        assert!(data.join(f).is_file(), "{f}");
+    }
+    let back = datasets::csvdir::load(&data).unwrap();
+    let fresh = datasets::synthetic::generate(&datasets::synthetic::Scenario {
+        n_scans: 12,
+        ..datasets::synthetic::Scenario::marina_like()
+    })
+    .unwrap();
+    assert_eq!(back.scans, fresh.scans, "bit for bit");
+    let out = dir.join("out");
+    let spec = format!("csv:{}", data.display());
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        &spec,
+        "--variants",
+        "HD_ICP",
+        "--quiet",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read_pairs(&out).len(), 11);
+}

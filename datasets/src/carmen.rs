@@ -1,0 +1,216 @@
+//! CARMEN logs: the classic public 2D laser format (`FLASER` lines), plain or gzipped.
+//!
+//! `FLASER n r_1 … r_n x y θ odom_x odom_y odom_θ ipc_timestamp ipc_hostname logger_timestamp`
+//!
+//! Ranges are metres; `x y θ` is the laser pose (in corrected logs, the reference); bearings
+//! span the field of view counter-clockwise from its right edge, `n` beams over 180° by default.
+//! A reading at or beyond the maximum range is a no-return. Other message types (`ODOM`,
+//! `PARAM`, `RLASER`, …) and `#` comments are skipped and counted.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::Path;
+
+use icp_core::{BearingSense, Scan, SensorModel};
+use sha2::{Digest, Sha256};
+
+use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
+use crate::DatasetError;
+
+/// The laser's angular layout and range limit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CarmenOptions {
+    /// Field of view, degrees; the beams are spread evenly over it, first beam at its right edge.
+    pub fov_deg: f64,
+    /// Readings at or beyond this range are no-returns, metres.
+    pub max_range_m: f64,
+    /// The sensor model for the weights (default: the Sweep model).
+    pub sensor: SensorModel,
+}
+
+impl Default for CarmenOptions {
+    fn default() -> Self {
+        Self {
+            fov_deg: 180.0,
+            max_range_m: 50.0,
+            sensor: SensorModel::sweep(),
+        }
+    }
+}
+
+/// What a parse skipped.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CarmenCounts {
+    /// `FLASER` lines read.
+    pub scans: usize,
+    /// Other lines (other messages, comments, blank lines) skipped.
+    pub skipped_lines: usize,
+}
+
+/// Reads a CARMEN log from `path` (`.log`, or gzip detected by its magic bytes).
+pub fn load(path: &Path, options: &CarmenOptions) -> Result<Dataset, DatasetError> {
+    let bytes = std::fs::read(path).map_err(|source| DatasetError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let sha256 = Sha256::digest(&bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    let (mut ds, _) = if bytes.starts_with(&[0x1f, 0x8b]) {
+        parse(path, flate2::read::GzDecoder::new(&bytes[..]), options)?
+    } else {
+        parse(path, &bytes[..], options)?
+    };
+    ds.provenance.files = vec![FileProvenance {
+        path: path.to_path_buf(),
+        sha256,
+        matches_pinned: None,
+    }];
+    Ok(ds)
+}
+
+/// Parses a CARMEN log; `path` names it in errors.
+pub fn parse<R: Read>(
+    path: &Path,
+    reader: R,
+    options: &CarmenOptions,
+) -> Result<(Dataset, CarmenCounts), DatasetError> {
+    let check = |name: &'static str, value: f64, ok: bool| {
+        if ok {
+            Ok(())
+        } else {
+            Err(DatasetError::InvalidParameter {
+                name,
+                value,
+                reason: "out of range for a CARMEN layout",
+            })
+        }
+    };
+    check(
+        "fov_deg",
+        options.fov_deg,
+        options.fov_deg.is_finite() && options.fov_deg > 0.0 && options.fov_deg <= 360.0,
+    )?;
+    check(
+        "max_range_m",
+        options.max_range_m,
+        options.max_range_m.is_finite() && options.max_range_m > 0.0,
+    )?;
+    let mut scans = Vec::new();
+    let mut reference = Vec::new();
+    let mut counts = CarmenCounts::default();
+    let at = |line: usize, what: String| DatasetError::Parse {
+        path: path.to_path_buf(),
+        line,
+        what,
+    };
+    for (i, line) in BufReader::new(reader).lines().enumerate() {
+        let n_line = i + 1;
+        let line = line.map_err(|e| at(n_line, format!("unreadable line: {e}")))?;
+        let mut fields = line.split_whitespace();
+        if fields.next() != Some("FLASER") {
+            counts.skipped_lines += 1;
+            continue;
+        }
+        let fields: Vec<&str> = fields.collect();
+        let num = |k: usize, what: &str| -> Result<f64, DatasetError> {
+            let f = fields
+                .get(k)
+                .ok_or_else(|| at(n_line, format!("missing field {what} (field {})", k + 2)))?;
+            let v: f64 = f
+                .parse()
+                .map_err(|_| at(n_line, format!("{what} is not a number: {f:?}")))?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(at(n_line, format!("{what} is not finite: {f:?}")))
+            }
+        };
+        let n_f = num(0, "the reading count")?;
+        if n_f < 0.0 || n_f.fract() != 0.0 || n_f > 100_000.0 {
+            return Err(at(
+                n_line,
+                format!("the reading count {n_f} is not a count"),
+            ));
+        }
+        let n = n_f as usize;
+        // n ranges, then x y θ, odometry x y θ, ipc timestamp, host, logger timestamp.
+        if fields.len() < n + 10 {
+            return Err(at(
+                n_line,
+                format!(
+                    "{} fields after the count, {} expected for {n} readings",
+                    fields.len() - 1,
+                    n + 9
+                ),
+            ));
+        }
+        let mut ranges = Vec::with_capacity(n);
+        for k in 0..n {
+            let r = num(1 + k, &format!("reading {k}"))?;
+            if r < 0.0 {
+                return Err(at(n_line, format!("reading {k} is negative: {r}")));
+            }
+            ranges.push(if r >= options.max_range_m {
+                f64::NAN
+            } else {
+                r
+            });
+        }
+        let step = if n > 1 {
+            options.fov_deg / (n - 1) as f64
+        } else {
+            0.0
+        };
+        let bearings: Vec<f64> = (0..n)
+            .map(|k| (-0.5 * options.fov_deg + step * k as f64).to_radians())
+            .collect();
+        let (x_m, y_m, theta) = (num(n + 1, "x")?, num(n + 2, "y")?, num(n + 3, "theta")?);
+        let timestamp = num(n + 7, "ipc_timestamp")?;
+        let scan = Scan::from_polar(&ranges, &bearings)
+            .and_then(|s| s.with_timestamp(timestamp))
+            .map_err(|e| at(n_line, e.to_string()))?;
+        scans.push(scan);
+        reference.push(ReferencePose {
+            x_m,
+            y_m,
+            heading_rad: theta,
+            scan_yaw_rad: Some(theta),
+        });
+        counts.scans += 1;
+    }
+    let mut dts: Vec<f64> = scans
+        .windows(2)
+        .filter_map(|w| Some(w[1].timestamp_s()? - w[0].timestamp_s()?))
+        .collect();
+    let dt_s = icp_core::robust::median_in_place(&mut dts)
+        .filter(|d| *d > 0.0)
+        .unwrap_or(1.0);
+    Ok((
+        Dataset {
+            provenance: Provenance {
+                name: format!(
+                    "carmen:{}",
+                    path.file_name().map_or_else(
+                        || path.display().to_string(),
+                        |f| f.to_string_lossy().into_owned()
+                    )
+                ),
+                description: format!(
+                    "CARMEN log {} ({} FLASER scans, {}° field of view)",
+                    path.display(),
+                    counts.scans,
+                    options.fov_deg
+                ),
+                files: Vec::new(),
+            },
+            scans,
+            reference: Some(reference),
+            reference_heading_sense: BearingSense::CounterClockwise,
+            dt_s,
+            sensor: options.sensor,
+            bearing_sense: BearingSense::CounterClockwise,
+        },
+        counts,
+    ))
+}

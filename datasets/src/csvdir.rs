@@ -1,0 +1,411 @@
+//! Our own plain-text format, so anyone can bring their data (see `datasets/README.md`): a
+//! directory with `scans.csv` (one row per reading), optionally `poses.csv` (one reference pose
+//! per scan) and `dataset.json` (name, timing, senses, sensor model).
+//!
+//! Numbers are written in Rust's shortest round-trip form, so a dataset written and read back
+//! is the same bit for bit.
+
+use std::fmt::Write as _;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use icp_core::{BearingSense, Scan, SensorModel};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
+use crate::DatasetError;
+
+/// Readings, one row each: `scan,timestamp_s,range_m,bearing_rad`.
+pub const SCANS_FILE: &str = "scans.csv";
+/// Reference poses, one row per scan: `scan,x_m,y_m,heading_rad,scan_yaw_rad`.
+pub const POSES_FILE: &str = "poses.csv";
+/// Metadata.
+pub const META_FILE: &str = "dataset.json";
+
+/// The contents of `dataset.json`. Every field is optional.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DatasetMeta {
+    /// Short name (default: `csv:<directory name>`).
+    pub name: Option<String>,
+    /// Description.
+    pub description: Option<String>,
+    /// Nominal time between scans, s (default: the median timestamp step, else 1).
+    pub dt_s: Option<f64>,
+    /// Sense of the scanner's bearings (default counter-clockwise).
+    pub bearing_sense: Option<BearingSense>,
+    /// Sense of the reference heading (default counter-clockwise).
+    pub reference_heading_sense: Option<BearingSense>,
+    /// Sensor error model (default: the Sweep model).
+    pub sensor: Option<SensorModel>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ReadingRow {
+    scan: usize,
+    timestamp_s: Option<f64>,
+    range_m: Option<f64>,
+    bearing_rad: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PoseRow {
+    scan: usize,
+    x_m: f64,
+    y_m: f64,
+    heading_rad: f64,
+    scan_yaw_rad: Option<f64>,
+}
+
+fn csv_error(path: &Path, e: &csv::Error) -> DatasetError {
+    let line = e.position().map_or(0, |p| p.line() as usize);
+    DatasetError::Parse {
+        path: path.to_path_buf(),
+        line,
+        what: e.to_string(),
+    }
+}
+
+/// Every row of a CSV file whose header has exactly `columns`, deserialized, with its line.
+fn rows<T: serde::de::DeserializeOwned, R: Read>(
+    path: &Path,
+    reader: R,
+    columns: &[&str],
+) -> Result<Vec<(usize, T)>, DatasetError> {
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let headers = rdr.headers().map_err(|e| csv_error(path, &e))?.clone();
+    let header_error = |what: String| DatasetError::Parse {
+        path: path.to_path_buf(),
+        line: 1,
+        what,
+    };
+    if let Some(missing) = columns.iter().find(|c| !headers.iter().any(|h| h == **c)) {
+        return Err(header_error(format!(
+            "missing column {missing:?} (expected {})",
+            columns.join(",")
+        )));
+    }
+    if let Some(extra) = headers.iter().find(|h| !columns.contains(h)) {
+        return Err(header_error(format!(
+            "unknown column {extra:?} (expected {})",
+            columns.join(",")
+        )));
+    }
+    let mut record = csv::StringRecord::new();
+    let mut out = Vec::new();
+    while rdr
+        .read_record(&mut record)
+        .map_err(|e| csv_error(path, &e))?
+    {
+        let line = record.position().map_or(0, |p| p.line() as usize);
+        let row = record
+            .deserialize(Some(&headers))
+            .map_err(|e| DatasetError::Parse {
+                path: path.to_path_buf(),
+                line,
+                what: e.to_string(),
+            })?;
+        out.push((line, row));
+    }
+    Ok(out)
+}
+
+fn read_file(path: &Path) -> Result<Vec<u8>, DatasetError> {
+    std::fs::read(path).map_err(|source| DatasetError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+fn provenance_of(path: PathBuf, bytes: &[u8]) -> FileProvenance {
+    let sha256 = Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    FileProvenance {
+        path,
+        sha256,
+        matches_pinned: None,
+    }
+}
+
+/// Loads a dataset directory.
+pub fn load(dir: &Path) -> Result<Dataset, DatasetError> {
+    let scans_path = dir.join(SCANS_FILE);
+    let scans_bytes = read_file(&scans_path)?;
+    let mut files = vec![provenance_of(scans_path.clone(), &scans_bytes)];
+    let poses_path = dir.join(POSES_FILE);
+    let poses_bytes = if poses_path.is_file() {
+        Some(read_file(&poses_path)?)
+    } else {
+        None
+    };
+    if let Some(b) = &poses_bytes {
+        files.push(provenance_of(poses_path.clone(), b));
+    }
+    let meta_path = dir.join(META_FILE);
+    let meta = if meta_path.is_file() {
+        let bytes = read_file(&meta_path)?;
+        files.push(provenance_of(meta_path.clone(), &bytes));
+        serde_json::from_slice(&bytes).map_err(|e| DatasetError::Parse {
+            path: meta_path.clone(),
+            line: e.line(),
+            what: e.to_string(),
+        })?
+    } else {
+        DatasetMeta::default()
+    };
+    let default_name = format!(
+        "csv:{}",
+        dir.file_name().map_or_else(
+            || dir.display().to_string(),
+            |n| n.to_string_lossy().into_owned()
+        )
+    );
+    let mut ds = parse(
+        (&scans_path, &scans_bytes[..]),
+        poses_bytes.as_deref().map(|b| (poses_path.as_path(), b)),
+        &meta,
+        &default_name,
+    )?;
+    ds.provenance.files = files;
+    Ok(ds)
+}
+
+/// Parses the readings and (optionally) the poses; the paths name them in errors.
+pub fn parse<R: Read>(
+    scans: (&Path, R),
+    poses: Option<(&Path, R)>,
+    meta: &DatasetMeta,
+    default_name: &str,
+) -> Result<Dataset, DatasetError> {
+    let (scans_path, reader) = scans;
+    let mut out: Vec<Scan> = Vec::new();
+    let (mut ranges, mut bearings) = (Vec::new(), Vec::new());
+    let mut current: Option<(usize, Option<f64>)> = None;
+    let finish = |id: usize,
+                  ts: Option<f64>,
+                  ranges: &[f64],
+                  bearings: &[f64]|
+     -> Result<Scan, DatasetError> {
+        let scan = Scan::from_polar(ranges, bearings).map_err(|source| DatasetError::Scan {
+            path: scans_path.to_path_buf(),
+            scan: id,
+            source,
+        })?;
+        match ts {
+            Some(t) => scan.with_timestamp(t).map_err(|source| DatasetError::Scan {
+                path: scans_path.to_path_buf(),
+                scan: id,
+                source,
+            }),
+            None => Ok(scan),
+        }
+    };
+    for (line, row) in rows::<ReadingRow, _>(
+        scans_path,
+        reader,
+        &["scan", "timestamp_s", "range_m", "bearing_rad"],
+    )? {
+        let bad = |what: String| DatasetError::Parse {
+            path: scans_path.to_path_buf(),
+            line,
+            what,
+        };
+        match current {
+            Some((id, ts)) if id == row.scan => {
+                if ts != row.timestamp_s
+                    && !(ts.is_some_and(f64::is_nan) && row.timestamp_s.is_some_and(f64::is_nan))
+                {
+                    return Err(bad(format!(
+                        "scan {id} has two timestamps: {ts:?} and {:?}",
+                        row.timestamp_s
+                    )));
+                }
+            }
+            Some((id, ts)) => {
+                if row.scan != id + 1 {
+                    return Err(bad(format!(
+                        "scan ids must increase by one: scan {} follows scan {id}",
+                        row.scan
+                    )));
+                }
+                out.push(finish(id, ts, &ranges, &bearings)?);
+                ranges.clear();
+                bearings.clear();
+                current = Some((row.scan, row.timestamp_s));
+            }
+            None => {
+                if row.scan != 0 {
+                    return Err(bad(format!(
+                        "the first scan id must be 0, not {}",
+                        row.scan
+                    )));
+                }
+                current = Some((0, row.timestamp_s));
+            }
+        }
+        ranges.push(row.range_m.unwrap_or(f64::NAN));
+        bearings.push(row.bearing_rad.unwrap_or(f64::NAN));
+    }
+    if let Some((id, ts)) = current {
+        out.push(finish(id, ts, &ranges, &bearings)?);
+    }
+    let reference = match poses {
+        None => None,
+        Some((poses_path, reader)) => {
+            let mut poses = Vec::with_capacity(out.len());
+            for (line, row) in rows::<PoseRow, _>(
+                poses_path,
+                reader,
+                &["scan", "x_m", "y_m", "heading_rad", "scan_yaw_rad"],
+            )? {
+                let bad = |what: String| DatasetError::Parse {
+                    path: poses_path.to_path_buf(),
+                    line,
+                    what,
+                };
+                if row.scan != poses.len() {
+                    return Err(bad(format!(
+                        "pose rows must run 0, 1, 2, …: expected scan {}, found {}",
+                        poses.len(),
+                        row.scan
+                    )));
+                }
+                let values = [
+                    row.x_m,
+                    row.y_m,
+                    row.heading_rad,
+                    row.scan_yaw_rad.unwrap_or(0.0),
+                ];
+                if values.iter().any(|v| !v.is_finite()) {
+                    return Err(bad(format!("non-finite pose for scan {}", row.scan)));
+                }
+                poses.push(ReferencePose {
+                    x_m: row.x_m,
+                    y_m: row.y_m,
+                    heading_rad: row.heading_rad,
+                    scan_yaw_rad: row.scan_yaw_rad,
+                });
+            }
+            if poses.len() != out.len() {
+                return Err(DatasetError::Shape {
+                    path: poses_path.to_path_buf(),
+                    name: "pose rows".into(),
+                    expected: format!("one per scan ({})", out.len()),
+                    got: vec![poses.len()],
+                });
+            }
+            Some(poses)
+        }
+    };
+    let sensor = meta.sensor.unwrap_or_default();
+    sensor.validate().map_err(|e| DatasetError::BadValue {
+        path: META_FILE.into(),
+        what: e.to_string(),
+    })?;
+    let dt_s = match meta.dt_s {
+        Some(dt) if dt.is_finite() && dt > 0.0 => dt,
+        Some(dt) => {
+            return Err(DatasetError::InvalidParameter {
+                name: "dt_s",
+                value: dt,
+                reason: "must be finite and positive",
+            })
+        }
+        None => {
+            let mut steps: Vec<f64> = out
+                .windows(2)
+                .filter_map(|w| Some(w[1].timestamp_s()? - w[0].timestamp_s()?))
+                .collect();
+            icp_core::robust::median_in_place(&mut steps)
+                .filter(|d| *d > 0.0)
+                .unwrap_or(1.0)
+        }
+    };
+    let name = meta.name.clone().unwrap_or_else(|| default_name.to_owned());
+    Ok(Dataset {
+        provenance: Provenance {
+            description: meta
+                .description
+                .clone()
+                .unwrap_or_else(|| format!("{name}: {} scans from our CSV format", out.len())),
+            name,
+            files: Vec::new(),
+        },
+        scans: out,
+        reference,
+        reference_heading_sense: meta
+            .reference_heading_sense
+            .unwrap_or(BearingSense::CounterClockwise),
+        dt_s,
+        sensor,
+        bearing_sense: meta.bearing_sense.unwrap_or(BearingSense::CounterClockwise),
+    })
+}
+
+/// Writes `ds` as a dataset directory (creating it). Each scan's no-returns are written as
+/// rows with empty range and bearing, so the counts survive the round trip.
+pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
+    std::fs::create_dir_all(dir).map_err(|source| DatasetError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
+    let mut s = String::from("scan,timestamp_s,range_m,bearing_rad\n");
+    for (k, scan) in ds.scans.iter().enumerate() {
+        let ts = opt(scan.timestamp_s());
+        for r in scan.returns() {
+            let _ = writeln!(s, "{k},{ts},{},{}", r.range_m, r.bearing_rad);
+        }
+        for _ in 0..scan.no_returns() {
+            let _ = writeln!(s, "{k},{ts},,");
+        }
+    }
+    write_file(&dir.join(SCANS_FILE), s.as_bytes())?;
+    if let Some(poses) = &ds.reference {
+        let mut s = String::from("scan,x_m,y_m,heading_rad,scan_yaw_rad\n");
+        for (k, p) in poses.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "{k},{},{},{},{}",
+                p.x_m,
+                p.y_m,
+                p.heading_rad,
+                opt(p.scan_yaw_rad)
+            );
+        }
+        write_file(&dir.join(POSES_FILE), s.as_bytes())?;
+    }
+    let meta = DatasetMeta {
+        name: Some(ds.provenance.name.clone()),
+        description: Some(ds.provenance.description.clone()),
+        dt_s: Some(ds.dt_s),
+        bearing_sense: Some(ds.bearing_sense),
+        reference_heading_sense: Some(ds.reference_heading_sense),
+        sensor: Some(ds.sensor),
+    };
+    let json = serde_json::to_string_pretty(&meta).map_err(|e| DatasetError::BadValue {
+        path: dir.join(META_FILE),
+        what: e.to_string(),
+    })?;
+    write_file(&dir.join(META_FILE), (json + "\n").as_bytes())
+}
+
+/// Writes through a temporary file and a rename, so a reader never sees half a file.
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), DatasetError> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, bytes).map_err(|source| DatasetError::Io {
+        path: tmp.clone(),
+        source,
+    })?;
+    std::fs::rename(&tmp, path).map_err(|source| DatasetError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
