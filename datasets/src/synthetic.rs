@@ -44,10 +44,11 @@ pub struct ScannerConfig {
     pub noise: bool,
     /// Largest range, metres; farther surfaces give no return.
     pub max_range_m: f64,
-    /// Beams per revolution (750 gives the public data's 0.48° spacing).
-    pub beams_per_rev: usize,
-    /// Time of one revolution, seconds (matters only with motion distortion).
-    pub rotation_period_s: f64,
+    /// Rotation rate of the head, revolutions per second.
+    pub rotation_hz: f64,
+    /// Range samples per second. With the rotation rate it sets the bearing spacing:
+    /// 3,750 Hz at 5 Hz gives 750 beams per revolution, the public data's 0.48°.
+    pub sample_rate_hz: f64,
     /// Probability that a beam that hit something returns nothing.
     pub dropout_prob: f64,
     /// Fraction of beams that return a spurious range (spray, water): uniform in 1 m to half
@@ -58,14 +59,31 @@ pub struct ScannerConfig {
     pub motion_distortion: bool,
 }
 
+impl ScannerConfig {
+    /// Beams per revolution: samples per second over revolutions per second, rounded.
+    pub fn beams_per_rev(&self) -> usize {
+        let beams = (self.sample_rate_hz / self.rotation_hz).round();
+        if beams.is_finite() && beams >= 0.0 {
+            beams as usize
+        } else {
+            0
+        }
+    }
+
+    /// Time of one revolution, seconds.
+    pub fn rotation_period_s(&self) -> f64 {
+        1.0 / self.rotation_hz
+    }
+}
+
 impl Default for ScannerConfig {
     fn default() -> Self {
         Self {
             sensor: SensorModel::sweep(),
             noise: true,
             max_range_m: 40.0,
-            beams_per_rev: 750,
-            rotation_period_s: 0.2,
+            rotation_hz: 5.0,
+            sample_rate_hz: 3750.0,
             dropout_prob: 0.05,
             gross_error_fraction: 0.005,
             motion_distortion: false,
@@ -174,9 +192,11 @@ impl Scenario {
                 s.max_range_m.is_finite() && s.max_range_m > 1.0,
             ),
             (
-                "beams_per_rev",
-                s.beams_per_rev as f64,
-                s.beams_per_rev >= 3,
+                "sample_rate_hz",
+                s.sample_rate_hz,
+                s.sample_rate_hz.is_finite()
+                    && s.beams_per_rev() >= 3
+                    && s.beams_per_rev() <= 1_000_000,
             ),
             (
                 "dropout_prob",
@@ -189,9 +209,9 @@ impl Scenario {
                 (0.0..=1.0).contains(&s.gross_error_fraction),
             ),
             (
-                "rotation_period_s",
-                s.rotation_period_s,
-                s.rotation_period_s.is_finite() && s.rotation_period_s > 0.0,
+                "rotation_hz",
+                s.rotation_hz,
+                s.rotation_hz.is_finite() && s.rotation_hz > 0.0,
             ),
         ];
         for (name, value, ok) in checks {
@@ -419,7 +439,8 @@ impl<'a> Scanner<'a> {
     ) -> (Vec<f64>, Vec<f64>) {
         let sc = self.config;
         let unit = Normal::new(0.0, 1.0).expect("unit normal");
-        let beam_step = std::f64::consts::TAU / sc.beams_per_rev as f64;
+        let beams = sc.beams_per_rev();
+        let beam_step = std::f64::consts::TAU / beams as f64;
         let start = pose_at(t_s);
         let centre = Point2::from(start.translation.vector);
         let reach = sc.max_range_m + if sc.motion_distortion { 2.0 } else { 0.0 };
@@ -430,12 +451,12 @@ impl<'a> Scanner<'a> {
             .collect();
         // Each revolution starts at a random fraction of a beam, as a free-running scanner does.
         let phase = event_rng.random_range(0.0..beam_step);
-        let mut ranges = Vec::with_capacity(sc.beams_per_rev);
-        let mut bearings = Vec::with_capacity(sc.beams_per_rev);
-        for j in 0..sc.beams_per_rev {
+        let mut ranges = Vec::with_capacity(beams);
+        let mut bearings = Vec::with_capacity(beams);
+        for j in 0..beams {
             let bearing = phase + j as f64 * beam_step;
             let pose = if sc.motion_distortion {
-                pose_at(t_s + sc.rotation_period_s * j as f64 / sc.beams_per_rev as f64)
+                pose_at(t_s + sc.rotation_period_s() * j as f64 / beams as f64)
             } else {
                 start
             };
@@ -475,7 +496,7 @@ impl<'a> Scanner<'a> {
 pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     scenario.validate()?;
     let sc = &scenario.scanner;
-    let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + sc.rotation_period_s;
+    let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + sc.rotation_period_s();
     let track = Track::new(scenario, duration_s);
     let mut event_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
     let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x005e_ed0f_5e45);

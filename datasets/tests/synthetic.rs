@@ -148,7 +148,7 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
             noise: false,
             dropout_prob: 0.0,
             gross_error_fraction: 0.0,
-            beams_per_rev: 14_400,
+            sample_rate_hz: 72_000.0, // 14,400 beams per revolution at 5 Hz: 0.025°
             ..ScannerConfig::default()
         },
         ..short(16)
@@ -215,7 +215,7 @@ fn bad_scenarios_are_refused() {
         },
         Scenario {
             scanner: ScannerConfig {
-                beams_per_rev: 2,
+                sample_rate_hz: 10.0,
                 ..ScannerConfig::default()
             },
             ..Scenario::paper()
@@ -227,4 +227,43 @@ fn bad_scenarios_are_refused() {
             Err(DatasetError::InvalidParameter { .. } | DatasetError::BadValue { .. })
         ));
     }
+}
+
+/// With motion distortion each beam is taken from where the vessel is at that moment: the
+/// last beam of a revolution is displaced by about speed × rotation period.
+#[test]
+fn motion_distortion_moves_late_beams_by_the_travel_during_the_revolution() {
+    let base = Scenario {
+        n_scans: 3,
+        turns: vec![],
+        yaw_wobble_deg: 0.0,
+        speed_wobble_mps: 0.0,
+        scanner: ScannerConfig {
+            noise: false,
+            dropout_prob: 0.0,
+            gross_error_fraction: 0.0,
+            rotation_hz: 1.0, // a slow head: 1.2 m of travel per revolution
+            sample_rate_hz: 750.0,
+            ..ScannerConfig::default()
+        },
+        ..Scenario::paper()
+    };
+    let still = generate(&base).unwrap();
+    let moving = generate(&Scenario {
+        scanner: ScannerConfig {
+            motion_distortion: true,
+            ..base.scanner
+        },
+        ..base.clone()
+    })
+    .unwrap();
+    let (a, b) = (&still.scans[1], &moving.scans[1]);
+    assert_eq!(a.len(), b.len(), "the same beams hit");
+    let first = (a.returns()[0].point - b.returns()[0].point).norm();
+    let last_a = a.returns().last().unwrap();
+    let last_b = b.returns().last().unwrap();
+    // The first beam is taken at the scan's start pose; the last one ~1 s later, 1.2 m along.
+    assert!(first < 1e-9, "{first}");
+    let shift = (last_a.point - last_b.point).norm();
+    assert!(shift > 0.3 && shift < 2.5, "last beam moved by {shift} m");
 }

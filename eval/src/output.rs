@@ -236,6 +236,11 @@ pub fn table_md(report: &RunReport) -> String {
         "\nFailed registrations: {failed}. Skipped pairs: {}.",
         d.skipped_pairs.len()
     );
+    for v in &report.variants {
+        for f in &v.failures {
+            let _ = writeln!(out, "- {} failed on pair {}: {}", v.name, f.pair, f.reason);
+        }
+    }
     for s in &d.skipped_pairs {
         let _ = writeln!(
             out,

@@ -1,0 +1,60 @@
+//! A pair that cannot be registered is kept, flagged with its reason and counted; the run
+//! carries on.
+
+use datasets::synthetic::{generate, Scenario};
+use eval::{evaluate, EvalSetup, OffsetChoice};
+use icp_core::variants::{Variant, VariantConfig};
+use icp_core::Scan;
+use indicatif::ProgressBar;
+
+#[test]
+fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
+    let mut ds = generate(&Scenario {
+        n_scans: 6,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    // Scan 3 sees only one straight wall: translation along it is not observable.
+    let wall: Vec<[f64; 2]> = (0..100).map(|i| [5.0, -10.0 + 0.2 * i as f64]).collect();
+    ds.scans[3] = Scan::from_cartesian(&wall)
+        .unwrap()
+        .with_timestamp(0.6)
+        .unwrap();
+    let setup = EvalSetup {
+        variants: vec![Variant::HIcp, Variant::HdIcp],
+        config: VariantConfig::default(),
+        offset: OffsetChoice::Fixed(0),
+    };
+    let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
+    assert_eq!(report.dataset.pairs, 5);
+    for v in &report.variants {
+        assert_eq!(v.pairs_ok, 3, "{}", v.name);
+        let failed: Vec<usize> = v.failures.iter().map(|f| f.pair).collect();
+        assert_eq!(failed, vec![2, 3], "{}", v.name);
+        assert!(
+            v.failures.iter().all(|f| f.reason.contains("collinear")),
+            "{:?}",
+            v.failures
+        );
+        assert_eq!(
+            v.all_pairs.pairs, 3,
+            "statistics count only registered pairs"
+        );
+        assert_eq!(v.all_pairs.sog_err_mps.unwrap().n, 3);
+        assert_eq!(v.trajectory.gaps, 2);
+    }
+    let rows: Vec<_> = report
+        .pairs
+        .iter()
+        .filter(|r| r.variant == "HD_ICP")
+        .collect();
+    assert_eq!(rows.len(), 5, "failed pairs stay in pairs.csv");
+    assert!(
+        rows[2].status.starts_with("failed: ")
+            && rows[2].sog_est_mps.is_none()
+            && !rows[2].converged
+    );
+    assert_eq!(rows[4].status, "ok");
+    let table = eval::output::table_md(&report);
+    assert!(table.contains("Failed registrations: 4."), "{table}");
+}
