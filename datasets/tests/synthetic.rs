@@ -3,7 +3,7 @@
 
 use datasets::synthetic::{generate, Scanner, ScannerConfig, Scenario, Segment, Turn};
 use datasets::DatasetError;
-use icp_core::variants::{Variant, VariantConfig};
+use icp_core::variants::{builtin, VariantConfig};
 use icp_core::{SensorModel, Termination};
 use nalgebra::{Isometry2, Point2, Vector2};
 use rand::SeedableRng;
@@ -162,7 +162,7 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
         },
         ..VariantConfig::default()
     };
-    let hd = Variant::HdIcp.build(&config).unwrap();
+    let hd = builtin("HD_ICP", &config).unwrap().build().unwrap();
     for pair in ds.consecutive_pairs().0 {
         let out = hd
             .register(

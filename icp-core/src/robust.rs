@@ -1,5 +1,7 @@
 //! Robust rejection, Algorithm 1 step 4: a factor on each pair's weight from the whole batch.
 
+use serde::{Deserialize, Serialize};
+
 use crate::matching::Correspondence;
 
 /// Multiplies pair weights by a robust factor computed over all the pairs of an iteration
@@ -17,27 +19,86 @@ impl RobustKernel for NoRobust {
     fn reweight(&self, _pairs: &[Correspondence], _weights: &mut [f64], _scratch: &mut Vec<f64>) {}
 }
 
-/// Huber down-weighting with a median-scaled threshold (Naus & Marchel 2019, Algorithm 1 step 4):
-/// `kHu = c · median_i d_i` over the pair distances `d_i`; a pair with `d > kHu` has its
-/// weight multiplied by `kHu / d`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct HuberMedian {
+/// The robust kernels: each maps `u = d / k` (a pair's distance over the threshold) to a
+/// factor on the pair's weight.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kernel {
+    /// Huber: 1 for `u ≤ 1`, `1/u` beyond (the paper's rejection).
+    Huber,
+    /// Tukey's biweight: `(1 − u²)²` for `u < 1`, 0 beyond (hard rejection).
+    Tukey,
+    /// Cauchy: `1 / (1 + u²)`.
+    Cauchy,
+    /// Geman-McClure: `1 / (1 + u²)²`.
+    #[serde(rename = "geman_mcclure")]
+    GemanMcClure,
+}
+
+impl Kernel {
+    /// The weight factor at `u = d / k ≥ 0`.
+    #[inline]
+    pub fn factor(self, u: f64) -> f64 {
+        match self {
+            Kernel::Huber => {
+                if u <= 1.0 {
+                    1.0
+                } else {
+                    1.0 / u
+                }
+            }
+            Kernel::Tukey => {
+                if u < 1.0 {
+                    (1.0 - u * u).powi(2)
+                } else {
+                    0.0
+                }
+            }
+            Kernel::Cauchy => 1.0 / (1.0 + u * u),
+            Kernel::GemanMcClure => 1.0 / (1.0 + u * u).powi(2),
+        }
+    }
+
+    /// The default `c` of `k = c · median d`: the paper's 2.0138 for Huber; for the others the
+    /// usual 95 %-efficiency tuning constants (4.685, 2.3849, 2.0), taking the median pair
+    /// distance as the scale.
+    pub fn default_c(self) -> f64 {
+        match self {
+            Kernel::Huber => MedianScaled::PAPER_C,
+            Kernel::Tukey => 4.685,
+            Kernel::Cauchy => 2.3849,
+            Kernel::GemanMcClure => 2.0,
+        }
+    }
+}
+
+/// Robust down-weighting with a median-scaled threshold (Naus & Marchel 2019, Algorithm 1
+/// step 4, for Huber): `k = c · median_i d_i` over the pair distances `d_i` of the iteration;
+/// each pair's weight is multiplied by `kernel.factor(d / k)`. With [`Kernel::Huber`] a pair
+/// with `d > k` has its weight multiplied by `k / d`, as in the paper.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MedianScaled {
+    /// The kernel.
+    pub kernel: Kernel,
     /// The factor `c` on the median distance (dimensionless).
     pub c: f64,
 }
 
-impl HuberMedian {
-    /// The paper's `c = 2.0138`.
+impl MedianScaled {
+    /// The paper's `c = 2.0138` for Huber.
     pub const PAPER_C: f64 = 2.0138;
-}
 
-impl Default for HuberMedian {
-    fn default() -> Self {
-        Self { c: Self::PAPER_C }
+    /// The paper's Huber rejection: `c = 2.0138`.
+    pub fn paper_huber() -> Self {
+        Self {
+            kernel: Kernel::Huber,
+            c: Self::PAPER_C,
+        }
     }
 }
 
-impl RobustKernel for HuberMedian {
+impl RobustKernel for MedianScaled {
     fn reweight(&self, pairs: &[Correspondence], weights: &mut [f64], scratch: &mut Vec<f64>) {
         scratch.clear();
         scratch.extend(pairs.iter().map(|p| p.dist_sq.sqrt()));
@@ -45,12 +106,24 @@ impl RobustKernel for HuberMedian {
             return;
         };
         let k = self.c * median;
-        for (p, w) in pairs.iter().zip(weights.iter_mut()) {
-            let d = p.dist_sq.sqrt();
-            if d > k {
-                *w *= k / d;
+        if k <= 0.0 {
+            // More than half of the pairs coincide exactly: keep those, drop the rest.
+            for (p, w) in pairs.iter().zip(weights.iter_mut()) {
+                if p.dist_sq > 0.0 {
+                    *w = 0.0;
+                }
             }
+            return;
         }
+        for (p, w) in pairs.iter().zip(weights.iter_mut()) {
+            *w *= self.kernel.factor(p.dist_sq.sqrt() / k);
+        }
+    }
+}
+
+impl<K: RobustKernel + ?Sized> RobustKernel for Box<K> {
+    fn reweight(&self, pairs: &[Correspondence], weights: &mut [f64], scratch: &mut Vec<f64>) {
+        (**self).reweight(pairs, weights, scratch)
     }
 }
 
@@ -103,9 +176,44 @@ mod tests {
         // Distances 0.1, 0.2, 0.3, 0.4, 5.0: median 0.3, kHu = 2.0138 * 0.3 = 0.60414.
         let p = pairs(&[0.1, 0.2, 0.3, 0.4, 5.0]);
         let mut w = vec![2.0; 5];
-        HuberMedian::default().reweight(&p, &mut w, &mut Vec::new());
+        MedianScaled::paper_huber().reweight(&p, &mut w, &mut Vec::new());
         assert_eq!(&w[..4], &[2.0; 4]);
         assert!((w[4] - 2.0 * 0.60414 / 5.0).abs() < 1e-12, "{}", w[4]);
+    }
+
+    #[test]
+    fn kernels_by_hand() {
+        for k in [
+            Kernel::Huber,
+            Kernel::Tukey,
+            Kernel::Cauchy,
+            Kernel::GemanMcClure,
+        ] {
+            assert_eq!(k.factor(0.0), 1.0, "{k:?}");
+        }
+        assert_eq!(Kernel::Huber.factor(4.0), 0.25);
+        assert_eq!(Kernel::Tukey.factor(0.5), 0.5625); // (1 - 0.25)^2
+        assert_eq!(Kernel::Tukey.factor(1.0), 0.0);
+        assert_eq!(Kernel::Cauchy.factor(2.0), 0.2);
+        assert_eq!(Kernel::GemanMcClure.factor(2.0), 0.04);
+        // Tukey with c = 4 on distances whose median is 0.3: k = 1.2, so 5.0 is rejected.
+        let p = pairs(&[0.1, 0.2, 0.3, 0.4, 5.0]);
+        let mut w = vec![1.0; 5];
+        MedianScaled {
+            kernel: Kernel::Tukey,
+            c: 4.0,
+        }
+        .reweight(&p, &mut w, &mut Vec::new());
+        assert_eq!(w[4], 0.0);
+        assert!((w[0] - (1.0 - (0.1f64 / 1.2).powi(2)).powi(2)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn zero_median_keeps_only_the_coincident_pairs() {
+        let p = pairs(&[0.0, 0.0, 0.0, 0.5]);
+        let mut w = vec![1.0; 4];
+        MedianScaled::paper_huber().reweight(&p, &mut w, &mut Vec::new());
+        assert_eq!(w, vec![1.0, 1.0, 1.0, 0.0]);
     }
 
     #[test]

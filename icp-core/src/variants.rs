@@ -1,29 +1,32 @@
-//! The four variants of the paper's Table 1 as named constructors of one [`Icp`] chain.
+//! The paper's four variants (Table 1), and variants as data: a [`VariantSpec`] names the
+//! stages and parameters of one chain, read from a configuration file or from the built-in
+//! registry ([`builtin`]), and builds a [`Registrar`].
 //!
-//! | name | weights | Huber |
+//! | name | weights | rejection |
 //! | --- | --- | --- |
-//! | K_ICP | uniform | no |
-//! | H_ICP | uniform | yes |
-//! | HM_ICP | mean error, eq. 13 | yes |
-//! | HD_ICP | directional, eq. 12 | yes |
+//! | K_ICP | uniform | none |
+//! | H_ICP | uniform | Huber |
+//! | HM_ICP | mean error, eq. 13 | Huber |
+//! | HD_ICP | directional, eq. 12 | Huber |
+//! | IR_ICP | inverse range (the worked example of a new scheme) | Huber |
 
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{BruteForce, Delaunay, KdTree, Matcher, MatcherKind};
 use crate::minimize::WeightedSvd;
-use crate::robust::{HuberMedian, NoRobust};
+use crate::robust::{Kernel, MedianScaled, NoRobust, RobustKernel};
 use crate::select::{AllPoints, EqualCount, Selection};
-use crate::weighting::{Directional, MeanError, Uniform};
+use crate::weighting::{Directional, MeanError, Uniform, WeightingSpec};
 use crate::{Icp, IcpError, Registrar, SensorModel, Termination};
 
 /// K_ICP: uniform weights, no rejection.
 pub type KIcp<M = KdTree, S = EqualCount> = Icp<S, M, Uniform, NoRobust, WeightedSvd>;
 /// H_ICP: uniform weights, Huber rejection.
-pub type HIcp<M = KdTree, S = EqualCount> = Icp<S, M, Uniform, HuberMedian, WeightedSvd>;
+pub type HIcp<M = KdTree, S = EqualCount> = Icp<S, M, Uniform, MedianScaled, WeightedSvd>;
 /// HM_ICP: mean-error weights (eq. 13), Huber rejection.
-pub type HmIcp<M = KdTree, S = EqualCount> = Icp<S, M, MeanError, HuberMedian, WeightedSvd>;
+pub type HmIcp<M = KdTree, S = EqualCount> = Icp<S, M, MeanError, MedianScaled, WeightedSvd>;
 /// HD_ICP: directional weights (eq. 12), Huber rejection.
-pub type HdIcp<M = KdTree, S = EqualCount> = Icp<S, M, Directional, HuberMedian, WeightedSvd>;
+pub type HdIcp<M = KdTree, S = EqualCount> = Icp<S, M, Directional, MedianScaled, WeightedSvd>;
 
 fn chain<S, M, W, K>(
     name: &str,
@@ -63,7 +66,7 @@ pub fn h_icp() -> HIcp {
         EqualCount::default(),
         KdTree,
         Uniform,
-        HuberMedian::default(),
+        MedianScaled::paper_huber(),
         Termination::default(),
     )
 }
@@ -75,7 +78,7 @@ pub fn hm_icp(sensor: SensorModel) -> HmIcp {
         EqualCount::default(),
         KdTree,
         MeanError { sensor },
-        HuberMedian::default(),
+        MedianScaled::paper_huber(),
         Termination::default(),
     )
 }
@@ -87,102 +90,9 @@ pub fn hd_icp(sensor: SensorModel) -> HdIcp {
         EqualCount::default(),
         KdTree,
         Directional { sensor },
-        HuberMedian::default(),
+        MedianScaled::paper_huber(),
         Termination::default(),
     )
-}
-
-/// A variant of Table 1, by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-pub enum Variant {
-    /// Uniform weights, no rejection.
-    #[serde(rename = "K_ICP")]
-    KIcp,
-    /// Uniform weights, Huber.
-    #[serde(rename = "H_ICP")]
-    HIcp,
-    /// Mean-error weights, Huber.
-    #[serde(rename = "HM_ICP")]
-    HmIcp,
-    /// Directional weights, Huber.
-    #[serde(rename = "HD_ICP")]
-    HdIcp,
-}
-
-impl Variant {
-    /// The four variants in Table 1's order.
-    pub const ALL: [Variant; 4] = [Variant::KIcp, Variant::HIcp, Variant::HmIcp, Variant::HdIcp];
-
-    /// The Table 1 name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Variant::KIcp => "K_ICP",
-            Variant::HIcp => "H_ICP",
-            Variant::HmIcp => "HM_ICP",
-            Variant::HdIcp => "HD_ICP",
-        }
-    }
-
-    /// Builds the variant with the stages and parameters of `config`.
-    pub fn build(self, config: &VariantConfig) -> Result<Box<dyn Registrar>, IcpError> {
-        config.validate()?;
-        Ok(match config.matcher {
-            MatcherKind::Kdtree => self.build_with(KdTree, config),
-            MatcherKind::Delaunay => self.build_with(Delaunay, config),
-            MatcherKind::Brute => self.build_with(BruteForce, config),
-        })
-    }
-
-    fn build_with<M: Matcher + 'static>(
-        self,
-        matcher: M,
-        config: &VariantConfig,
-    ) -> Box<dyn Registrar> {
-        let selection: Box<dyn Selection> = match config.selection {
-            SelectionKind::All => Box::new(AllPoints),
-            SelectionKind::EqualCount { seed } => Box::new(EqualCount { seed }),
-        };
-        let (name, term, sensor) = (self.name(), config.termination, config.sensor);
-        let huber = HuberMedian { c: config.huber_c };
-        match self {
-            Variant::KIcp => Box::new(chain(name, selection, matcher, Uniform, NoRobust, term)),
-            Variant::HIcp => Box::new(chain(name, selection, matcher, Uniform, huber, term)),
-            Variant::HmIcp => Box::new(chain(
-                name,
-                selection,
-                matcher,
-                MeanError { sensor },
-                huber,
-                term,
-            )),
-            Variant::HdIcp => Box::new(chain(
-                name,
-                selection,
-                matcher,
-                Directional { sensor },
-                huber,
-                term,
-            )),
-        }
-    }
-}
-
-impl std::fmt::Display for Variant {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for Variant {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Variant::ALL
-            .into_iter()
-            .find(|v| v.name().eq_ignore_ascii_case(s))
-            .ok_or_else(|| {
-                format!("unknown variant {s:?}: expected K_ICP, H_ICP, HM_ICP or HD_ICP")
-            })
-    }
 }
 
 /// Point selection by name.
@@ -198,11 +108,107 @@ pub enum SelectionKind {
     },
 }
 
-/// The parameters shared by the four variants.
+impl Default for SelectionKind {
+    fn default() -> Self {
+        SelectionKind::EqualCount { seed: 0 }
+    }
+}
+
+/// Robust rejection by name.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum RobustSpec {
+    /// No rejection.
+    None,
+    /// A kernel with threshold `c · median d` ([`MedianScaled`]).
+    MedianScaled {
+        /// Huber, Tukey, Cauchy or Geman-McClure.
+        kernel: Kernel,
+        /// Factor on the median pair distance.
+        c: f64,
+    },
+}
+
+/// One registration method as data: what a configuration file holds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VariantSpec {
+    /// Name in reports, e.g. `HD_ICP`.
+    pub name: String,
+    /// Where the method comes from (citation, Table 1 row), free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<String>,
+    /// Pair weighting (Alg. 1 step 3).
+    pub weighting: WeightingSpec,
+    /// Robust rejection (Alg. 1 step 4).
+    pub robust: RobustSpec,
+    /// Nearest-neighbour matcher (Alg. 1 step 2).
+    #[serde(default)]
+    pub matcher: MatcherKind,
+    /// Point selection (Alg. 1 step 1).
+    #[serde(default)]
+    pub selection: SelectionKind,
+    /// Error model for the weights.
+    #[serde(default)]
+    pub sensor: SensorModel,
+    /// Convergence rule (Alg. 1 step 6).
+    #[serde(default)]
+    pub termination: Termination,
+}
+
+impl VariantSpec {
+    /// Checks every parameter before a run.
+    pub fn validate(&self) -> Result<(), IcpError> {
+        self.sensor.validate()?;
+        self.termination.validate()?;
+        self.weighting.validate()?;
+        if let RobustSpec::MedianScaled { c, .. } = self.robust {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(IcpError::InvalidParameter {
+                    name: "robust.c",
+                    value: c,
+                    reason: "must be finite and positive",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds the registrar this spec describes.
+    pub fn build(&self) -> Result<Box<dyn Registrar>, IcpError> {
+        self.validate()?;
+        Ok(match self.matcher {
+            MatcherKind::Kdtree => self.build_with(KdTree),
+            MatcherKind::Delaunay => self.build_with(Delaunay),
+            MatcherKind::Brute => self.build_with(BruteForce),
+        })
+    }
+
+    fn build_with<M: Matcher + 'static>(&self, matcher: M) -> Box<dyn Registrar> {
+        let selection: Box<dyn Selection> = match self.selection {
+            SelectionKind::All => Box::new(AllPoints),
+            SelectionKind::EqualCount { seed } => Box::new(EqualCount { seed }),
+        };
+        let robust: Box<dyn RobustKernel> = match self.robust {
+            RobustSpec::None => Box::new(NoRobust),
+            RobustSpec::MedianScaled { kernel, c } => Box::new(MedianScaled { kernel, c }),
+        };
+        Box::new(chain(
+            &self.name,
+            selection,
+            matcher,
+            self.weighting.build(self.sensor),
+            robust,
+            self.termination,
+        ))
+    }
+}
+
+/// Settings shared by the built-in variants (the command line's options).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VariantConfig {
-    /// Error model for the HM and HD weights.
+    /// Error model for the weights.
     pub sensor: SensorModel,
     /// Nearest-neighbour matcher.
     pub matcher: MatcherKind,
@@ -219,27 +225,84 @@ impl Default for VariantConfig {
         Self {
             sensor: SensorModel::sweep(),
             matcher: MatcherKind::Kdtree,
-            selection: SelectionKind::EqualCount { seed: 0 },
-            huber_c: HuberMedian::PAPER_C,
+            selection: SelectionKind::default(),
+            huber_c: MedianScaled::PAPER_C,
             termination: Termination::default(),
         }
     }
 }
 
-impl VariantConfig {
-    /// Checks every parameter before a run.
-    pub fn validate(&self) -> Result<(), IcpError> {
-        self.sensor.validate()?;
-        self.termination.validate()?;
-        if !(self.huber_c.is_finite() && self.huber_c > 0.0) {
-            return Err(IcpError::InvalidParameter {
-                name: "huber_c",
-                value: self.huber_c,
-                reason: "must be finite and positive",
-            });
-        }
-        Ok(())
-    }
+/// The paper's four variants, in Table 1's order.
+pub const TABLE1: [&str; 4] = ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"];
+
+/// The built-in variants: name, weighting, whether Huber rejects, and the source.
+const BUILTIN: [(&str, WeightingSpec, bool, &str); 5] = [
+    (
+        "K_ICP",
+        WeightingSpec::Uniform,
+        false,
+        "Naus & Marchel 2019, Table 1: uniform weights, no rejection",
+    ),
+    (
+        "H_ICP",
+        WeightingSpec::Uniform,
+        true,
+        "Naus & Marchel 2019, Table 1: uniform weights, Huber (c = 2.0138)",
+    ),
+    (
+        "HM_ICP",
+        WeightingSpec::MeanError,
+        true,
+        "Naus & Marchel 2019, Table 1 and eq. 13: mean-error weights, Huber",
+    ),
+    (
+        "HD_ICP",
+        WeightingSpec::Directional,
+        true,
+        "Naus & Marchel 2019, Table 1 and eq. 12: directional weights, Huber",
+    ),
+    (
+        "IR_ICP",
+        WeightingSpec::InverseRange { r0_m: 1.0 },
+        true,
+        "icp-bench worked example: inverse-range weights, Huber",
+    ),
+];
+
+/// Names of every built-in variant.
+pub fn builtin_names() -> impl Iterator<Item = &'static str> {
+    BUILTIN.iter().map(|b| b.0)
+}
+
+/// The built-in variant `name` (case-insensitive) with the shared settings of `config`.
+pub fn builtin(name: &str, config: &VariantConfig) -> Option<VariantSpec> {
+    let &(name, weighting, huber, source) =
+        BUILTIN.iter().find(|b| b.0.eq_ignore_ascii_case(name))?;
+    Some(VariantSpec {
+        name: name.to_owned(),
+        source: Some(source.to_owned()),
+        weighting,
+        robust: if huber {
+            RobustSpec::MedianScaled {
+                kernel: Kernel::Huber,
+                c: config.huber_c,
+            }
+        } else {
+            RobustSpec::None
+        },
+        matcher: config.matcher,
+        selection: config.selection,
+        sensor: config.sensor,
+        termination: config.termination,
+    })
+}
+
+/// The four variants of Table 1 with the shared settings of `config`.
+pub fn table1(config: &VariantConfig) -> Vec<VariantSpec> {
+    TABLE1
+        .iter()
+        .map(|n| builtin(n, config).expect("the Table 1 names are built in"))
+        .collect()
 }
 
 #[cfg(test)]
@@ -247,13 +310,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn names_round_trip_and_stages_are_send_sync() {
-        for v in Variant::ALL {
-            assert_eq!(v.name().parse::<Variant>().unwrap(), v);
-            assert_eq!(v.name().to_lowercase().parse::<Variant>().unwrap(), v);
-            assert_eq!(v.build(&VariantConfig::default()).unwrap().name(), v.name());
+    fn builtins_build_and_stages_are_send_sync() {
+        for name in builtin_names() {
+            let spec = builtin(&name.to_lowercase(), &VariantConfig::default()).unwrap();
+            assert_eq!(spec.name, name);
+            assert_eq!(spec.build().unwrap().name(), name);
         }
-        assert!("X_ICP".parse::<Variant>().is_err());
+        assert!(builtin("X_ICP", &VariantConfig::default()).is_none());
+        assert_eq!(table1(&VariantConfig::default()).len(), 4);
         fn send_sync<T: Send + Sync>() {}
         send_sync::<KIcp>();
         send_sync::<HIcp>();
@@ -263,25 +327,70 @@ mod tests {
     }
 
     #[test]
-    fn invalid_config_is_refused() {
-        let bad = VariantConfig {
-            huber_c: -1.0,
-            ..Default::default()
+    fn invalid_specs_are_refused() {
+        let mut spec = builtin("H_ICP", &VariantConfig::default()).unwrap();
+        spec.robust = RobustSpec::MedianScaled {
+            kernel: Kernel::Huber,
+            c: -1.0,
         };
         assert!(matches!(
-            Variant::HIcp.build(&bad),
+            spec.build(),
             Err(IcpError::InvalidParameter {
-                name: "huber_c",
+                name: "robust.c",
                 ..
             })
         ));
-        let bad = VariantConfig {
-            termination: Termination {
-                max_iterations: 0,
-                mean_dist_change_eps_m: 1e-6,
-            },
-            ..Default::default()
-        };
-        assert!(Variant::KIcp.build(&bad).is_err());
+        let mut spec = builtin("K_ICP", &VariantConfig::default()).unwrap();
+        spec.termination.max_iterations = 0;
+        assert!(spec.build().is_err());
+        let mut spec = builtin("IR_ICP", &VariantConfig::default()).unwrap();
+        spec.weighting = WeightingSpec::InverseRange { r0_m: 0.0 };
+        assert!(spec.build().is_err());
+    }
+
+    #[test]
+    fn specs_read_from_json_with_defaults_and_refuse_unknown_fields() {
+        let json = r#"{"name": "T_ICP", "weighting": {"kind": "directional"},
+                       "robust": {"kind": "median_scaled", "kernel": "tukey", "c": 4.685}}"#;
+        let spec: VariantSpec = serde_json::from_str(json).unwrap();
+        assert_eq!(spec.matcher, MatcherKind::Kdtree);
+        assert_eq!(spec.sensor, SensorModel::sweep());
+        assert!(spec.build().is_ok());
+        let typo = r#"{"name": "T", "weighting": {"kind": "uniform"}, "robust": {"kind": "none"}, "matchr": "brute"}"#;
+        assert!(serde_json::from_str::<VariantSpec>(typo).is_err());
+    }
+
+    #[test]
+    fn the_spec_and_the_typed_constructor_register_identically() {
+        let pts: Vec<[f64; 2]> = (0..200)
+            .map(|i| {
+                let a = i as f64 * 0.031;
+                [
+                    (8.0 + 3.0 * (2.0 * a).sin()) * a.cos(),
+                    (8.0 + 3.0 * (2.0 * a).sin()) * a.sin(),
+                ]
+            })
+            .collect();
+        let t = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.2, -0.1), 0.02);
+        let moved: Vec<[f64; 2]> = pts
+            .iter()
+            .map(|p| {
+                let q = t * nalgebra::Point2::new(p[0], p[1]);
+                [q.x + 0.01 * (q.y * 7.0).sin(), q.y]
+            })
+            .collect();
+        let (a, b) = (
+            crate::Scan::from_cartesian(&pts).unwrap(),
+            crate::Scan::from_cartesian(&moved).unwrap(),
+        );
+        let id = nalgebra::Isometry2::identity();
+        let typed = hd_icp(SensorModel::sweep()).register(&a, &b, id).unwrap();
+        let spec = builtin("HD_ICP", &VariantConfig::default())
+            .unwrap()
+            .build()
+            .unwrap()
+            .register(&a, &b, id)
+            .unwrap();
+        assert_eq!(typed, spec);
     }
 }

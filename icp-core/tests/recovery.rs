@@ -1,7 +1,7 @@
 //! Every variant, with every matcher, recovers known rigid motions of noise-free scans.
 
 use icp_core::matching::MatcherKind;
-use icp_core::variants::{Variant, VariantConfig};
+use icp_core::variants::{builtin, builtin_names, VariantConfig};
 use icp_core::{Registrar, Scan};
 use nalgebra::{Isometry2, Point2, Vector2};
 use proptest::prelude::*;
@@ -74,8 +74,8 @@ fn registrars() -> Vec<Box<dyn Registrar>> {
             matcher,
             ..Default::default()
         };
-        for v in Variant::ALL {
-            out.push(v.build(&config).unwrap());
+        for v in builtin_names() {
+            out.push(builtin(v, &config).unwrap().build().unwrap());
         }
     }
     out
@@ -198,14 +198,17 @@ fn huber_beats_plain_icp_with_outliers() {
             Scan::from_cartesian(&source).unwrap(),
             Scan::from_cartesian(&moved).unwrap(),
         );
-        let err = |v: Variant| {
-            let reg = v.build(&VariantConfig::default()).unwrap();
+        let err = |v: &str| {
+            let reg = builtin(v, &VariantConfig::default())
+                .unwrap()
+                .build()
+                .unwrap();
             let out = reg
                 .register(&src, &reference, Isometry2::identity())
                 .unwrap();
             (out.t_ref_src.translation.vector - truth.translation.vector).norm()
         };
-        let (k, h) = (err(Variant::KIcp), err(Variant::HIcp));
+        let (k, h) = (err("K_ICP"), err("H_ICP"));
         k_sum += k;
         h_sum += h;
         if h >= k {
@@ -230,7 +233,10 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
     use icp_core::error::{Degeneracy, ScanRole};
     use icp_core::IcpError;
     let good = Scan::from_cartesian(&structured_points(3)).unwrap();
-    let reg = Variant::HdIcp.build(&VariantConfig::default()).unwrap();
+    let reg = builtin("HD_ICP", &VariantConfig::default())
+        .unwrap()
+        .build()
+        .unwrap();
     let id = Isometry2::identity();
     for n in 0..3 {
         let tiny = Scan::from_cartesian(&structured_points(3)[..n]).unwrap();
@@ -248,7 +254,7 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
         selection: icp_core::variants::SelectionKind::All,
         ..Default::default()
     };
-    let reg_all = Variant::HdIcp.build(&all_points).unwrap();
+    let reg_all = builtin("HD_ICP", &all_points).unwrap().build().unwrap();
     assert_eq!(
         reg_all.register(&good, &corridor_wall, id).unwrap_err(),
         IcpError::Degenerate {

@@ -4,14 +4,17 @@
 //! the README's recipe.
 
 use nalgebra::{Point2, UnitComplex};
+use serde::{Deserialize, Serialize};
 
 use crate::scan::Return;
 
 mod directional;
+mod inverse_range;
 mod mean_error;
 mod uniform;
 
 pub use directional::Directional;
+pub use inverse_range::InverseRange;
 pub use mean_error::MeanError;
 pub use uniform::Uniform;
 
@@ -33,4 +36,55 @@ pub struct PairView<'a> {
 pub trait PairWeighting: Send + Sync {
     /// The weight of one pair: finite and positive.
     fn weight(&self, pair: &PairView<'_>) -> f64;
+}
+
+impl<W: PairWeighting + ?Sized> PairWeighting for Box<W> {
+    #[inline]
+    fn weight(&self, pair: &PairView<'_>) -> f64 {
+        (**self).weight(pair)
+    }
+}
+
+/// The weighting schemes by name, for configuration files and the command line. Adding a
+/// scheme: one file with its `impl PairWeighting`, one arm here and one in [`WeightingSpec::build`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum WeightingSpec {
+    /// [`Uniform`]: every pair weighs 1.
+    Uniform,
+    /// [`MeanError`]: eq. 13, from the variant's sensor model.
+    MeanError,
+    /// [`Directional`]: eq. 12, from the variant's sensor model.
+    Directional,
+    /// [`InverseRange`]: the worked example of a new scheme.
+    InverseRange {
+        /// Range added to both ranges before weighting, metres (> 0).
+        r0_m: f64,
+    },
+}
+
+impl WeightingSpec {
+    /// Checks the scheme's parameters.
+    pub fn validate(&self) -> Result<(), crate::IcpError> {
+        match *self {
+            WeightingSpec::InverseRange { r0_m } if !(r0_m.is_finite() && r0_m > 0.0) => {
+                Err(crate::IcpError::InvalidParameter {
+                    name: "inverse_range.r0_m",
+                    value: r0_m,
+                    reason: "must be finite and positive",
+                })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The scheme, with `sensor` for those that need an error model.
+    pub fn build(&self, sensor: crate::SensorModel) -> Box<dyn PairWeighting> {
+        match *self {
+            WeightingSpec::Uniform => Box::new(Uniform),
+            WeightingSpec::MeanError => Box::new(MeanError { sensor }),
+            WeightingSpec::Directional => Box::new(Directional { sensor }),
+            WeightingSpec::InverseRange { r0_m } => Box::new(InverseRange { r0_m }),
+        }
+    }
 }
