@@ -12,6 +12,8 @@ use datasets::{Dataset, DatasetError};
 use icp_core::IcpError;
 use indicatif::ProgressBar;
 
+pub mod compare;
+pub mod gate;
 pub mod output;
 pub mod plots;
 pub mod published;
@@ -19,6 +21,7 @@ pub mod reference;
 pub mod report;
 pub mod runner;
 pub mod stats;
+pub mod sweep;
 
 pub use report::{EvalSetup, OffsetChoice, RunReport};
 
@@ -56,7 +59,7 @@ pub fn evaluate(
     let registrars = setup
         .variants
         .iter()
-        .map(|v| v.build(&setup.config))
+        .map(|v| v.build())
         .collect::<Result<Vec<_>, _>>()?;
     progress.set_length((registrars.len() * pairs.len()) as u64);
     let runs = runner::run_all(ds, &pairs, &registrars, progress);

@@ -7,11 +7,17 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use datasets::synthetic::{self, Scenario};
 use datasets::{marina, Dataset};
+use eval::compare::{compare, compare_md, CompareOptions};
+use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
+use eval::report::RunReport;
 use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice};
 use icp_core::matching::MatcherKind;
-use icp_core::variants::{SelectionKind, Variant, VariantConfig};
+use icp_core::variants::{
+    builtin, builtin_names, table1, SelectionKind, VariantConfig, VariantSpec, TABLE1,
+};
 use icp_core::SensorModel;
 use indicatif::{ProgressBar, ProgressStyle};
+use serde::Deserialize;
 
 /// Weighted-ICP evaluation for 2D LIDAR (Naus & Marchel 2019): runs the variants over every
 /// consecutive scan pair and reports SOG/ΔCOG errors like the paper's Table 1, and more.
@@ -29,8 +35,137 @@ enum Command {
     Reproduce(ReproduceArgs),
     /// Run chosen variants on one dataset.
     Run(RunArgs),
+    /// Compare variants pair by pair (bootstrap interval, Wilcoxon test), optionally over a
+    /// parameter sweep.
+    Compare(CompareArgs),
+    /// Compare a run's summary.json with a baseline: exit 0 if nothing got worse beyond the
+    /// tolerances, 1 with a table of what regressed, 2 on unusable input.
+    Gate(GateArgs),
     /// Generate a synthetic harbour dataset and write it in our CSV format.
     Synth(SynthArgs),
+    /// List the built-in variants and the stages a configuration file can name.
+    List,
+}
+
+#[derive(Args)]
+struct Common {
+    /// Number of worker threads (results do not depend on it).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Skip the figures.
+    #[arg(long)]
+    no_plots: bool,
+}
+
+#[derive(Args)]
+struct ReproduceArgs {
+    /// Directory holding the marina files (or a `marina/` folder); else $ICP_DATA_DIR, then ./datasets.
+    #[arg(long)]
+    data_dir: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, default_value = "reports/reproduction")]
+    out: PathBuf,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct DataArgs {
+    /// marina | synthetic[:paper|marina-like] | carmen:PATH (.log or .log.gz) | csv:DIR
+    #[arg(long)]
+    dataset: String,
+    /// Directory of the marina files.
+    #[arg(long)]
+    data_dir: Option<PathBuf>,
+    /// Nominal time between scans, s, where scans carry no timestamps (marina: 1.0;
+    /// synthetic: the scenario's spacing).
+    #[arg(long)]
+    dt: Option<f64>,
+    /// Synthetic only: number of scans (default: the scenario's).
+    #[arg(long)]
+    scans: Option<usize>,
+    /// Synthetic only: seed of the scenario (default: the scenario's own).
+    #[arg(long)]
+    scenario_seed: Option<u64>,
+    /// CARMEN only: field of view of the laser, degrees.
+    #[arg(long, default_value_t = 180.0)]
+    carmen_fov_deg: f64,
+    /// CARMEN only: readings at or beyond this range are no-returns, metres.
+    #[arg(long, default_value_t = 50.0)]
+    carmen_max_range_m: f64,
+}
+
+#[derive(Args)]
+struct VariantArgs {
+    /// Built-in variants, comma-separated (K_ICP, H_ICP, HM_ICP, HD_ICP, IR_ICP). Default:
+    /// the four of Table 1, or none when --config is given.
+    #[arg(long, value_delimiter = ',')]
+    variants: Option<Vec<String>>,
+    /// Variants from a JSON or TOML file: one variant spec, or `variants = [...]`. Taken as
+    /// written (the options below apply to the built-in variants only). Repeatable.
+    #[arg(long)]
+    config: Vec<PathBuf>,
+    /// Nearest-neighbour matcher: kdtree, delaunay or brute.
+    #[arg(long, default_value_t = MatcherKind::Kdtree)]
+    matcher: MatcherKind,
+    /// Bearing standard deviation of the sensor model behind the HM/HD weights, degrees
+    /// (default: the dataset's model; the data itself is not changed).
+    #[arg(long)]
+    sigma_alpha_deg: Option<f64>,
+    /// Factor c of the Huber threshold c · median.
+    #[arg(long, default_value_t = icp_core::robust::MedianScaled::PAPER_C)]
+    huber_c: f64,
+    /// Seed of the point selection.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+#[derive(Args)]
+struct RunArgs {
+    #[command(flatten)]
+    data: DataArgs,
+    #[command(flatten)]
+    variants: VariantArgs,
+    /// Reference time offset in scans, or `auto` to apply the estimated one.
+    #[arg(long, default_value = "0")]
+    reference_offset: OffsetChoice,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    #[command(flatten)]
+    run: RunArgs,
+    /// Bootstrap resamples.
+    #[arg(long, default_value_t = 10_000)]
+    bootstrap: usize,
+    /// Bootstrap seed.
+    #[arg(long, default_value_t = 0)]
+    bootstrap_seed: u64,
+    /// Also re-run the variants over values of one parameter: sigma_alpha_deg=0.1,0.5,... or
+    /// huber_c=1,2.0138,3.
+    #[arg(long)]
+    sweep: Option<String>,
+}
+
+#[derive(Args)]
+struct GateArgs {
+    /// The committed baseline summary.json.
+    #[arg(long)]
+    baseline: PathBuf,
+    /// The current run's summary.json.
+    #[arg(long)]
+    current: PathBuf,
+    /// Tolerances (JSON); default: reports/baseline/tolerance.json.
+    #[arg(long, default_value = "reports/baseline/tolerance.json")]
+    tolerance: PathBuf,
 }
 
 #[derive(Args)]
@@ -67,76 +202,6 @@ struct SynthArgs {
     out: PathBuf,
 }
 
-#[derive(Args)]
-struct Common {
-    /// Number of worker threads (results do not depend on it).
-    #[arg(long)]
-    threads: Option<usize>,
-    /// No progress bar.
-    #[arg(long)]
-    quiet: bool,
-    /// Skip the figures.
-    #[arg(long)]
-    no_plots: bool,
-}
-
-#[derive(Args)]
-struct ReproduceArgs {
-    /// Directory holding the marina files (or a `marina/` folder); else $ICP_DATA_DIR, then ./datasets.
-    #[arg(long)]
-    data_dir: Option<PathBuf>,
-    /// Output directory.
-    #[arg(long, default_value = "reports/reproduction")]
-    out: PathBuf,
-    #[command(flatten)]
-    common: Common,
-}
-
-#[derive(Args)]
-struct RunArgs {
-    /// marina | synthetic[:paper|marina-like] | carmen:PATH (.log or .log.gz) | csv:DIR
-    #[arg(long)]
-    dataset: String,
-    /// CARMEN only: field of view of the laser, degrees.
-    #[arg(long, default_value_t = 180.0)]
-    carmen_fov_deg: f64,
-    /// CARMEN only: readings at or beyond this range are no-returns, metres.
-    #[arg(long, default_value_t = 50.0)]
-    carmen_max_range_m: f64,
-    /// Directory of the marina files.
-    #[arg(long)]
-    data_dir: Option<PathBuf>,
-    /// Variants, comma-separated (K_ICP, H_ICP, HM_ICP, HD_ICP).
-    #[arg(long, value_delimiter = ',', default_values_t = Variant::ALL.to_vec())]
-    variants: Vec<Variant>,
-    /// Nearest-neighbour matcher: kdtree, delaunay or brute.
-    #[arg(long, default_value_t = MatcherKind::Kdtree)]
-    matcher: MatcherKind,
-    /// Nominal time between scans, s, where scans carry no timestamps (marina: 1.0;
-    /// synthetic: the scenario's spacing).
-    #[arg(long)]
-    dt: Option<f64>,
-    /// Bearing standard deviation of the sensor model behind the HM/HD weights, degrees
-    /// (default: the dataset's model; the data itself is not changed).
-    #[arg(long)]
-    sigma_alpha_deg: Option<f64>,
-    /// Synthetic only: number of scans (default: the scenario's).
-    #[arg(long)]
-    scans: Option<usize>,
-    /// Seed of the point selection (default 0) and, for synthetic data, of the scenario
-    /// (default: the scenario's own).
-    #[arg(long)]
-    seed: Option<u64>,
-    /// Reference time offset in scans, or `auto` to apply the estimated one.
-    #[arg(long, default_value = "0")]
-    reference_offset: OffsetChoice,
-    /// Output directory.
-    #[arg(long)]
-    out: PathBuf,
-    #[command(flatten)]
-    common: Common,
-}
-
 fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
@@ -151,8 +216,239 @@ fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Reproduce(args) => reproduce(args),
         Command::Run(args) => run_one(args),
+        Command::Compare(args) => compare_cmd(args),
+        Command::Gate(args) => gate_cmd(args),
         Command::Synth(args) => synth(args),
+        Command::List => list(),
     }
+}
+
+fn progress(quiet: bool, label: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(0);
+    if let Ok(style) =
+        ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} registrations ({eta})")
+    {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(label.to_owned());
+    bar
+}
+
+fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .context("building the thread pool")?
+            .install(f)),
+    }
+}
+
+fn evaluate_in_pool(ds: &Dataset, setup: &EvalSetup, common: &Common) -> Result<RunReport> {
+    let bar = progress(common.quiet, &ds.provenance.name);
+    Ok(in_pool(common.threads, || evaluate(ds, setup, &bar))??)
+}
+
+fn evaluate_and_write(
+    ds: &Dataset,
+    setup: &EvalSetup,
+    out: &Path,
+    common: &Common,
+) -> Result<RunReport> {
+    let report = evaluate_in_pool(ds, setup, common)?;
+    write_outputs(out, ds, &report, !common.no_plots)
+        .with_context(|| format!("writing the reports to {}", out.display()))?;
+    Ok(report)
+}
+
+fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
+    let setup = EvalSetup {
+        variants: table1(&VariantConfig::default()),
+        offset: OffsetChoice::Fixed(0),
+    };
+    match marina::find_data_dir(args.data_dir.as_deref()) {
+        Ok(dir) => {
+            let ds = marina::load(&dir, &marina::MarinaOptions::default())
+                .with_context(|| format!("loading the marina data from {}", dir.display()))?;
+            let out = args.out.join("marina");
+            let report = evaluate_and_write(&ds, &setup, &out, &args.common)?;
+            println!("{}", eval::output::table_md(&report));
+            println!("(marina reports in {})\n", out.display());
+        }
+        Err(e) => {
+            if args.data_dir.is_some() {
+                return Err(e).context("--data-dir was given but holds no marina data");
+            }
+            eprintln!("note: skipping the marina data: {e}\n");
+        }
+    }
+    let ds = synthetic::generate(&Scenario::paper())
+        .context("generating the synthetic `paper` scenario")?;
+    let out = args.out.join("synthetic-paper");
+    let report = evaluate_and_write(&ds, &setup, &out, &args.common)?;
+    println!("{}", eval::output::table_md(&report));
+    println!("(synthetic reports in {})", out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A variants file: one spec, or a list under `variants`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum VariantsFile {
+    Many { variants: Vec<VariantSpec> },
+    One(Box<VariantSpec>),
+}
+
+fn read_variants_file(path: &Path) -> Result<Vec<VariantSpec>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let parsed: VariantsFile = if path.extension().is_some_and(|e| e == "toml") {
+        toml::from_str(&text)
+            .with_context(|| format!("{} is not a valid variants file", path.display()))?
+    } else {
+        serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a valid variants file", path.display()))?
+    };
+    let specs = match parsed {
+        VariantsFile::Many { variants } => variants,
+        VariantsFile::One(spec) => vec![*spec],
+    };
+    for s in &specs {
+        s.validate()
+            .with_context(|| format!("variant {} in {}", s.name, path.display()))?;
+    }
+    Ok(specs)
+}
+
+fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>> {
+    let mut sensor = ds.sensor;
+    if let Some(deg) = args.sigma_alpha_deg {
+        sensor.sigma_alpha_rad = deg.to_radians();
+        sensor.validate().context("--sigma-alpha-deg")?;
+    }
+    let config = VariantConfig {
+        sensor,
+        matcher: args.matcher,
+        selection: SelectionKind::EqualCount { seed: args.seed },
+        huber_c: args.huber_c,
+        ..VariantConfig::default()
+    };
+    let names: Vec<String> = match &args.variants {
+        Some(v) => v.clone(),
+        None if args.config.is_empty() => TABLE1.iter().map(|s| s.to_string()).collect(),
+        None => Vec::new(),
+    };
+    let mut specs = Vec::new();
+    for n in &names {
+        let known = builtin_names().collect::<Vec<_>>().join(", ");
+        specs.push(builtin(n, &config).with_context(|| {
+            format!("unknown variant {n:?}: expected one of {known}, or --config FILE")
+        })?);
+    }
+    for path in &args.config {
+        specs.extend(read_variants_file(path)?);
+    }
+    if specs.is_empty() {
+        bail!("no variant to run");
+    }
+    for (i, s) in specs.iter().enumerate() {
+        s.validate()
+            .with_context(|| format!("variant {}", s.name))?;
+        if specs[..i].iter().any(|o| o.name == s.name) {
+            bail!("two variants are named {}", s.name);
+        }
+    }
+    Ok(specs)
+}
+
+fn run_one(args: RunArgs) -> Result<ExitCode> {
+    let ds = load_dataset(&args.data)?;
+    let setup = EvalSetup {
+        variants: resolve_variants(&args.variants, &ds)?,
+        offset: args.reference_offset,
+    };
+    let report = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
+    println!("{}", eval::output::table_md(&report));
+    Ok(ExitCode::SUCCESS)
+}
+
+fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
+    let run = &args.run;
+    let ds = load_dataset(&run.data)?;
+    let variants = resolve_variants(&run.variants, &ds)?;
+    let setup = EvalSetup {
+        variants: variants.clone(),
+        offset: run.reference_offset,
+    };
+    let report = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
+    let options = CompareOptions {
+        resamples: args.bootstrap,
+        seed: args.bootstrap_seed,
+    };
+    let rows = compare(&report, &options);
+    let md = compare_md(&report, &rows, &options);
+    let json = serde_json::to_string_pretty(
+        &serde_json::json!({ "options": options, "comparisons": rows }),
+    )? + "\n";
+    eval::output::write_atomic(&run.out.join("compare.md"), md.as_bytes())?;
+    eval::output::write_atomic(&run.out.join("compare.json"), json.as_bytes())?;
+    println!("{md}");
+    if let Some(text) = &args.sweep {
+        let (param, values) = eval::sweep::parse_sweep(text)
+            .map_err(anyhow::Error::msg)
+            .context("--sweep")?;
+        let bar = progress(run.common.quiet, "sweep");
+        let result = in_pool(run.common.threads, || {
+            eval::sweep::sweep(&ds, &variants, param, &values, &bar)
+        })??;
+        let md = eval::sweep::sweep_md(&result);
+        eval::output::write_atomic(&run.out.join("sweep.md"), md.as_bytes())?;
+        eval::output::write_atomic(
+            &run.out.join("sweep.json"),
+            (serde_json::to_string_pretty(&result)? + "\n").as_bytes(),
+        )?;
+        if !run.common.no_plots {
+            eval::plots::write_sweep(&run.out, &result)?;
+        }
+        println!("{md}");
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn read_report(path: &Path) -> Result<RunReport> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a summary.json of this schema", path.display()))
+}
+
+fn gate_cmd(args: GateArgs) -> Result<ExitCode> {
+    let baseline = read_report(&args.baseline)?;
+    let current = read_report(&args.current)?;
+    let text = std::fs::read_to_string(&args.tolerance)
+        .with_context(|| format!("reading {}", args.tolerance.display()))?;
+    let tolerances: Tolerances = serde_json::from_str(&text)
+        .with_context(|| format!("{} is not a tolerance file", args.tolerance.display()))?;
+    tolerances.validate().map_err(anyhow::Error::msg)?;
+    if let Some(why) = incompatibility(&baseline, &current) {
+        bail!(
+            "{} and {} cannot be compared: {why}",
+            args.baseline.display(),
+            args.current.display()
+        );
+    }
+    let outcome = gate(&baseline, &current, &tolerances);
+    print!("{}: {}", current.dataset.name, outcome_md(&outcome));
+    Ok(if outcome.regressions.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
 }
 
 fn synth(args: SynthArgs) -> Result<ExitCode> {
@@ -188,120 +484,34 @@ fn synth(args: SynthArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn progress(quiet: bool, label: &str) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
+fn list() -> Result<ExitCode> {
+    println!("Built-in variants (icp-eval run --variants NAME,...):");
+    for name in builtin_names() {
+        let spec = builtin(name, &VariantConfig::default()).expect("listed names are built in");
+        println!("  {name:8} {}", spec.source.unwrap_or_default());
     }
-    let bar = ProgressBar::new(0);
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg:>22} [{bar:40}] {pos}/{len} registrations ({eta})")
-    {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar.set_message(label.to_owned());
-    bar
-}
-
-fn in_pool<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> Result<T> {
-    match threads {
-        None => Ok(f()),
-        Some(0) => bail!("--threads must be at least 1"),
-        Some(n) => Ok(rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .context("building the thread pool")?
-            .install(f)),
-    }
-}
-
-fn evaluate_and_write(
-    ds: &Dataset,
-    setup: &EvalSetup,
-    out: &Path,
-    common: &Common,
-) -> Result<String> {
-    let bar = progress(common.quiet, &ds.provenance.name);
-    let report = in_pool(common.threads, || evaluate(ds, setup, &bar))??;
-    write_outputs(out, ds, &report, !common.no_plots)
-        .with_context(|| format!("writing the reports to {}", out.display()))?;
-    Ok(eval::output::table_md(&report))
-}
-
-fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
-    let setup = EvalSetup {
-        variants: Variant::ALL.to_vec(),
-        config: VariantConfig::default(),
-        offset: OffsetChoice::Fixed(0),
-    };
-    match marina::find_data_dir(args.data_dir.as_deref()) {
-        Ok(dir) => {
-            let ds = marina::load(&dir, &marina::MarinaOptions::default())
-                .with_context(|| format!("loading the marina data from {}", dir.display()))?;
-            let out = args.out.join("marina");
-            println!("{}", evaluate_and_write(&ds, &setup, &out, &args.common)?);
-            println!("(marina reports in {})\n", out.display());
-        }
-        Err(e) => {
-            if args.data_dir.is_some() {
-                return Err(e).context("--data-dir was given but holds no marina data");
-            }
-            eprintln!("note: skipping the marina data: {e}\n");
-        }
-    }
-    let ds = synthetic::generate(&Scenario::paper())
-        .context("generating the synthetic `paper` scenario")?;
-    let out = args.out.join("synthetic-paper");
-    println!("{}", evaluate_and_write(&ds, &setup, &out, &args.common)?);
-    println!("(synthetic reports in {})", out.display());
+    println!("\nStages a variants file can name (see configs/variants/*.json):");
+    println!("  weighting.kind: uniform | mean_error (eq. 13) | directional (eq. 12) | inverse_range {{r0_m}}");
+    println!("  robust.kind:    none | median_scaled {{kernel: huber | tukey | cauchy | geman_mcclure, c}}");
+    println!("  matcher:        kdtree | delaunay | brute");
+    println!("  selection.kind: all | equal_count {{seed}}");
+    println!("  sensor:         {{sigma_r_const_m, sigma_r_per_m, sigma_alpha_rad}}");
+    println!("  termination:    {{max_iterations, mean_dist_change_eps_m}}");
     Ok(ExitCode::SUCCESS)
 }
 
-fn run_one(args: RunArgs) -> Result<ExitCode> {
-    let mut ds = load_dataset(&args)?;
-    if let Some(deg) = args.sigma_alpha_deg {
-        let sensor = SensorModel {
-            sigma_alpha_rad: deg.to_radians(),
-            ..ds.sensor
-        };
-        sensor.validate().context("--sigma-alpha-deg")?;
-        ds.sensor = sensor;
-    }
-    let setup = EvalSetup {
-        variants: args.variants.clone(),
-        config: VariantConfig {
-            sensor: ds.sensor,
-            matcher: args.matcher,
-            selection: SelectionKind::EqualCount {
-                seed: args.seed.unwrap_or(0),
-            },
-            ..VariantConfig::default()
-        },
-        offset: args.reference_offset,
-    };
-    if setup.variants.is_empty() {
-        bail!("--variants names no variant");
-    }
-    println!(
-        "{}",
-        evaluate_and_write(&ds, &setup, &args.out, &args.common)?
-    );
-    Ok(ExitCode::SUCCESS)
-}
-
-fn load_dataset(args: &RunArgs) -> Result<Dataset> {
+fn load_dataset(args: &DataArgs) -> Result<Dataset> {
     let (kind, rest) = args.dataset.split_once(':').unwrap_or((&args.dataset, ""));
-    match kind {
+    let mut ds = match kind {
         "marina" => {
             let dir = marina::find_data_dir(args.data_dir.as_deref())?;
-            let dt_s = args.dt.unwrap_or(1.0);
-            Ok(marina::load(&dir, &marina::MarinaOptions { dt_s, ..Default::default() })?)
+            marina::load(&dir, &marina::MarinaOptions { dt_s: args.dt.unwrap_or(1.0), ..Default::default() })?
         }
         "synthetic" => {
             let name = if rest.is_empty() { "paper" } else { rest };
-            let mut scenario = Scenario::by_name(name).with_context(|| {
-                format!("unknown synthetic scenario {name:?}: expected paper or marina-like")
-            })?;
-            if let Some(seed) = args.seed {
+            let mut scenario = Scenario::by_name(name)
+                .with_context(|| format!("unknown synthetic scenario {name:?}: expected paper or marina-like"))?;
+            if let Some(seed) = args.scenario_seed {
                 scenario.seed = seed;
             }
             if let Some(dt) = args.dt {
@@ -310,7 +520,7 @@ fn load_dataset(args: &RunArgs) -> Result<Dataset> {
             if let Some(n) = args.scans {
                 scenario.n_scans = n;
             }
-            Ok(synthetic::generate(&scenario)?)
+            synthetic::generate(&scenario)?
         }
         "carmen" if !rest.is_empty() => {
             let options = datasets::carmen::CarmenOptions {
@@ -318,19 +528,13 @@ fn load_dataset(args: &RunArgs) -> Result<Dataset> {
                 max_range_m: args.carmen_max_range_m,
                 ..Default::default()
             };
-            let mut ds = datasets::carmen::load(Path::new(rest), &options)?;
-            if let Some(dt) = args.dt {
-                ds.dt_s = dt;
-            }
-            Ok(ds)
+            datasets::carmen::load(Path::new(rest), &options)?
         }
-        "csv" if !rest.is_empty() => {
-            let mut ds = datasets::csvdir::load(Path::new(rest))?;
-            if let Some(dt) = args.dt {
-                ds.dt_s = dt;
-            }
-            Ok(ds)
-        }
+        "csv" if !rest.is_empty() => datasets::csvdir::load(Path::new(rest))?,
         other => bail!("unknown dataset {other:?}: expected marina, synthetic[:scenario], carmen:PATH or csv:DIR"),
+    };
+    if let (Some(dt), "carmen" | "csv") = (args.dt, kind) {
+        ds.dt_s = dt;
     }
+    Ok(ds)
 }

@@ -502,3 +502,128 @@ pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), Eva
     };
     save_pair(dir, "map", &png, &svg)
 }
+
+struct SweepFigure<'a> {
+    result: &'a crate::sweep::SweepResult,
+}
+
+impl Figure for SweepFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1200, 1000)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let name = self.result.param.name();
+        let title = format!("Error spread against {name} (pairs with a plausible reference)");
+        let root = root.titled(&title, (FONT, 22)).map_err(err)?;
+        let mut variants: Vec<&str> = Vec::new();
+        for p in &self.result.points {
+            if !variants.contains(&p.variant.as_str()) {
+                variants.push(&p.variant);
+            }
+        }
+        let (x0, x1) = self
+            .result
+            .points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.value), b.max(p.value))
+            });
+        let pad = ((x1 - x0) * 0.05).max(1e-3);
+        type Get = fn(&crate::sweep::SweepPoint) -> Option<f64>;
+        let series: [(&str, Get); 2] = [
+            ("SOG error std (m/s)", |p| p.sog_std_mps),
+            ("ΔCOG error std (°)", |p| p.dcog_std_deg),
+        ];
+        let values = |v: &str, get: Get| -> Vec<(f64, f64)> {
+            self.result
+                .points
+                .iter()
+                .filter(|p| p.variant == v)
+                .filter_map(|p| get(p).map(|y| (p.value, y)))
+                .collect()
+        };
+        // Top row: every variant. Bottom row: zoomed on the variants whose spread stays within
+        // twice the median of all, so a much worse one (K_ICP) does not flatten the others.
+        let grid = root.split_evenly((2, 2));
+        for (col, (label, get)) in series.iter().enumerate() {
+            let mut all: Vec<f64> = self.result.points.iter().filter_map(get).collect();
+            all.sort_by(f64::total_cmp);
+            let median = if all.is_empty() {
+                0.0
+            } else {
+                crate::stats::quantile_sorted(&all, 0.5)
+            };
+            for row in 0..2 {
+                let shown: Vec<(usize, &str)> = variants
+                    .iter()
+                    .copied()
+                    .enumerate()
+                    .filter(|(_, v)| {
+                        row == 0 || values(v, *get).iter().all(|p| p.1 <= 2.0 * median)
+                    })
+                    .collect();
+                let ys: Vec<f64> = shown
+                    .iter()
+                    .flat_map(|(_, v)| values(v, *get))
+                    .map(|p| p.1)
+                    .collect();
+                let (lo, hi) = ys
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &y| {
+                        (a.min(y), b.max(y))
+                    });
+                let (lo, hi) = if lo.is_finite() {
+                    let m = ((hi - lo) * 0.1).max(hi.abs() * 0.01).max(1e-9);
+                    (if row == 0 { 0.0 } else { lo - m }, hi + m)
+                } else {
+                    (0.0, 1.0)
+                };
+                let caption = if row == 0 {
+                    "all variants".to_owned()
+                } else {
+                    "zoom: variants within 2x the median spread".to_owned()
+                };
+                let mut chart = ChartBuilder::on(&grid[row * 2 + col])
+                    .caption(caption, (FONT, 15))
+                    .margin(10)
+                    .x_label_area_size(40)
+                    .y_label_area_size(70)
+                    .build_cartesian_2d(x0 - pad..x1 + pad, lo..hi)
+                    .map_err(err)?;
+                chart
+                    .configure_mesh()
+                    .x_desc(name)
+                    .y_desc(*label)
+                    .draw()
+                    .map_err(err)?;
+                for (i, v) in shown {
+                    let color = COLORS[i % COLORS.len()];
+                    let pts = values(v, *get);
+                    chart
+                        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
+                        .map_err(err)?
+                        .label(v)
+                        .legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                        });
+                    chart
+                        .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                        .map_err(err)?;
+                }
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.9))
+                    .border_style(BLACK)
+                    .draw()
+                    .map_err(err)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Draws `sweep.png` and `sweep.svg`.
+pub fn write_sweep(dir: &Path, result: &crate::sweep::SweepResult) -> Result<(), EvalError> {
+    save(dir, "sweep", &SweepFigure { result })
+}

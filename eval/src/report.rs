@@ -3,8 +3,8 @@
 
 use datasets::{Dataset, FileProvenance, ScanPair, SkippedPair};
 use icp_core::motion::{wrap_deg, MovementParams};
-use icp_core::variants::{Variant, VariantConfig};
-use icp_core::{BearingSense, SensorModel, Termination};
+use icp_core::variants::VariantSpec;
+use icp_core::BearingSense;
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
@@ -214,14 +214,8 @@ pub struct ReferenceInfo {
 /// The configuration that produced the run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunConfig {
-    /// Variants, in run order.
-    pub variants: Vec<Variant>,
-    /// Stages and parameters shared by the variants.
-    pub variant_config: VariantConfig,
-    /// The sensor model used for the weights (same as in `variant_config`).
-    pub sensor: SensorModel,
-    /// Convergence rule.
-    pub termination: Termination,
+    /// Every variant's full specification, in run order.
+    pub variants: Vec<VariantSpec>,
 }
 
 /// The whole run.
@@ -251,9 +245,7 @@ pub struct RunReport {
 #[derive(Clone, Debug)]
 pub struct EvalSetup {
     /// Variants, in order.
-    pub variants: Vec<Variant>,
-    /// Their shared configuration.
-    pub config: VariantConfig,
+    pub variants: Vec<VariantSpec>,
     /// Reference time alignment.
     pub offset: OffsetChoice,
 }
@@ -299,7 +291,7 @@ pub fn build(
     let pivot = setup
         .variants
         .iter()
-        .position(|v| *v == Variant::HdIcp)
+        .position(|v| v.name == "HD_ICP")
         .unwrap_or(setup.variants.len().saturating_sub(1));
     let series = |f: &dyn Fn(&MovementParams) -> f64| -> Vec<f64> {
         estimates.get(pivot).map_or(Vec::new(), |e| {
@@ -348,7 +340,7 @@ pub fn build(
         let mut rows = Vec::with_capacity(pairs.len());
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
-                variant.name(),
+                &variant.name,
                 i,
                 *pair,
                 dts[i],
@@ -360,7 +352,7 @@ pub fn build(
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
         summaries.push(summarize(
-            variant.name(),
+            &variant.name,
             &rows,
             &runs[vi],
             ds,
@@ -385,9 +377,6 @@ pub fn build(
         },
         config: RunConfig {
             variants: setup.variants.clone(),
-            variant_config: setup.config,
-            sensor: setup.config.sensor,
-            termination: setup.config.termination,
         },
         reference: ReferenceInfo {
             available: ds.reference.is_some(),
@@ -398,7 +387,7 @@ pub fn build(
             offset_estimate,
             offset_choice: setup.offset,
             offset_applied_scans: applied,
-            offset_from_variant: setup.variants.get(pivot).map(|v| v.name().to_owned()),
+            offset_from_variant: setup.variants.get(pivot).map(|v| v.name.clone()),
             plausible_pairs: plausible.iter().filter(|&&p| p).count(),
             flagged_pairs: flagged,
         },

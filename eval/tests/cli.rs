@@ -100,7 +100,15 @@ fn every_output_exists_parses_and_agrees_with_the_csv() {
     assert!(table.contains("| HD_ICP |") && table.contains("SOG median"));
     let config: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("config.json")).unwrap()).unwrap();
-    assert_eq!(config["variant_config"]["matcher"], "kdtree");
+    let names: Vec<&str> = config["variants"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"]);
+    assert_eq!(config["variants"][3]["matcher"], "kdtree");
+    assert_eq!(config["variants"][3]["weighting"]["kind"], "directional");
     for stem in [
         "sog_error",
         "dcog_error",
@@ -196,7 +204,7 @@ fn bad_arguments_exit_2_with_a_message() {
         "--out",
         out,
     ]);
-    assert_eq!(o.status.code(), Some(2), "clap refuses an unknown variant");
+    assert_eq!(o.status.code(), Some(2), "an unknown variant is refused");
 }
 
 #[test]
@@ -268,4 +276,117 @@ fn synth_writes_a_dataset_that_run_reads_back() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(read_pairs(&out).len(), 11);
+}
+
+#[test]
+fn compare_writes_paired_statistics_and_a_sweep() {
+    let dir = common::scratch_dir("compare");
+    let cfg = dir.join("tukey.toml");
+    std::fs::write(
+        &cfg,
+        "[[variants]]\nname = \"TD_ICP\"\nweighting = { kind = \"directional\" }\nrobust = { kind = \"median_scaled\", kernel = \"tukey\", c = 4.685 }\n",
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let o = icp_eval(&[
+        "compare",
+        "--dataset",
+        "synthetic:marina-like",
+        "--scans",
+        "30",
+        "--variants",
+        "H_ICP,HD_ICP",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--bootstrap",
+        "500",
+        "--sweep",
+        "huber_c=1.5,3",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("compare.json")).unwrap()).unwrap();
+    // 3 variants: 3 pairs of variants x 2 errors.
+    let rows = json["comparisons"].as_array().unwrap();
+    assert_eq!(rows.len(), 6);
+    assert_eq!(
+        (rows[0]["a"].as_str(), rows[0]["b"].as_str()),
+        (Some("H_ICP"), Some("HD_ICP"))
+    );
+    assert!(rows.iter().all(|r| r["n"] == 29
+        && r["p_holm"].as_f64().unwrap() >= r["wilcoxon"]["p_value"].as_f64().unwrap()));
+    let md = std::fs::read_to_string(out.join("compare.md")).unwrap();
+    assert!(md.contains("| HD_ICP | TD_ICP | SOG | 29 |"), "{md}");
+    let sweep: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("sweep.json")).unwrap()).unwrap();
+    assert_eq!(sweep["param"], "huber_c");
+    assert_eq!(sweep["points"].as_array().unwrap().len(), 6);
+    assert!(out.join("sweep.png").is_file() && out.join("sweep.svg").is_file());
+    assert!(
+        out.join("summary.json").is_file(),
+        "compare also writes the run's own reports"
+    );
+}
+
+#[test]
+fn list_names_the_variants_and_bad_configs_exit_2() {
+    let o = icp_eval(&["list"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && text.contains("IR_ICP") && text.contains("geman_mcclure"),
+        "{text}"
+    );
+    let dir = common::scratch_dir("bad_config");
+    let cfg = dir.join("bad.json");
+    std::fs::write(&cfg, r#"{"name": "X", "weighting": {"kind": "uniform"}, "robust": {"kind": "median_scaled", "kernel": "huber", "c": -2}}"#).unwrap();
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "synthetic",
+        "--scans",
+        "5",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("robust.c"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    std::fs::write(&cfg, r#"{"name": "X", "weighting": {"kind": "uniform"}}"#).unwrap();
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "synthetic",
+        "--scans",
+        "5",
+        "--config",
+        cfg.to_str().unwrap(),
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "a spec without its robust stage is refused"
+    );
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "synthetic",
+        "--scans",
+        "5",
+        "--variants",
+        "HD_ICP,HD_ICP",
+        "--out",
+        dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("two variants are named HD_ICP"));
 }

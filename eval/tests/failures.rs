@@ -3,7 +3,7 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{Variant, VariantConfig};
+use icp_core::variants::{builtin, VariantConfig};
 use icp_core::Scan;
 use indicatif::ProgressBar;
 
@@ -21,8 +21,10 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
         .with_timestamp(0.6)
         .unwrap();
     let setup = EvalSetup {
-        variants: vec![Variant::HIcp, Variant::HdIcp],
-        config: VariantConfig::default(),
+        variants: ["H_ICP", "HD_ICP"]
+            .iter()
+            .map(|n| builtin(n, &VariantConfig::default()).unwrap())
+            .collect(),
         offset: OffsetChoice::Fixed(0),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();

@@ -6,15 +6,14 @@ mod common;
 use datasets::marina::{self, MarinaOptions};
 use eval::report::{ErrorStats, VariantSummary};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{Variant, VariantConfig};
+use icp_core::variants::{table1, VariantConfig};
 use indicatif::ProgressBar;
 
 fn marina_report() -> Option<eval::RunReport> {
     let dir = common::marina_dir()?;
     let ds = marina::load(&dir, &MarinaOptions::default()).unwrap();
     let setup = EvalSetup {
-        variants: Variant::ALL.to_vec(),
-        config: VariantConfig::default(),
+        variants: table1(&VariantConfig::default()),
         offset: OffsetChoice::Fixed(0),
     };
     Some(evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap())

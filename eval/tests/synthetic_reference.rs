@@ -3,7 +3,7 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{Variant, VariantConfig};
+use icp_core::variants::{builtin, VariantConfig};
 use indicatif::ProgressBar;
 
 #[test]
@@ -19,8 +19,7 @@ fn heading_change_follows_the_true_turns() {
     })
     .unwrap();
     let setup = EvalSetup {
-        variants: vec![Variant::HdIcp],
-        config: VariantConfig::default(),
+        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
         offset: OffsetChoice::Fixed(0),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
@@ -94,8 +93,7 @@ fn a_late_reference_is_detected_and_realigned() {
     late.reference = Some((0..r.len()).map(|k| r[k.saturating_sub(2)]).collect());
     let run = |ds: &datasets::Dataset, offset| {
         let setup = EvalSetup {
-            variants: vec![Variant::HdIcp],
-            config: VariantConfig::default(),
+            variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
             offset,
         };
         evaluate(ds, &setup, &ProgressBar::hidden()).unwrap()

@@ -1,0 +1,153 @@
+//! Sensitivity sweeps: re-run the variants with one parameter changed and record how the
+//! error spread moves.
+
+use datasets::Dataset;
+use icp_core::variants::{RobustSpec, VariantSpec};
+use indicatif::ProgressBar;
+use serde::{Deserialize, Serialize};
+
+use crate::report::{EvalSetup, OffsetChoice};
+use crate::{evaluate, EvalError};
+
+/// The parameters a sweep can vary.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SweepParam {
+    /// Bearing standard deviation of the weights' sensor model, degrees.
+    SigmaAlphaDeg,
+    /// Factor `c` of the median-scaled robust threshold (variants without rejection keep none).
+    HuberC,
+}
+
+impl SweepParam {
+    /// Name as written on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            SweepParam::SigmaAlphaDeg => "sigma_alpha_deg",
+            SweepParam::HuberC => "huber_c",
+        }
+    }
+
+    /// `spec` with the parameter set to `value`.
+    pub fn apply(self, spec: &VariantSpec, value: f64) -> VariantSpec {
+        let mut s = spec.clone();
+        match self {
+            SweepParam::SigmaAlphaDeg => s.sensor.sigma_alpha_rad = value.to_radians(),
+            SweepParam::HuberC => {
+                if let RobustSpec::MedianScaled { c, .. } = &mut s.robust {
+                    *c = value;
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Parses `NAME=v1,v2,...`.
+pub fn parse_sweep(text: &str) -> Result<(SweepParam, Vec<f64>), String> {
+    let (name, values) = text
+        .split_once('=')
+        .ok_or_else(|| format!("expected NAME=v1,v2,... in {text:?}"))?;
+    let param = match name.trim() {
+        "sigma_alpha_deg" => SweepParam::SigmaAlphaDeg,
+        "huber_c" => SweepParam::HuberC,
+        other => {
+            return Err(format!(
+                "unknown sweep parameter {other:?}: expected sigma_alpha_deg or huber_c"
+            ))
+        }
+    };
+    let values = values
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{v:?} is not a number"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    if values.is_empty() {
+        return Err("a sweep needs at least one value".into());
+    }
+    Ok((param, values))
+}
+
+/// The error spread of one variant at one parameter value (pairs with a plausible reference).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepPoint {
+    /// Parameter value.
+    pub value: f64,
+    /// Variant.
+    pub variant: String,
+    /// SOG error std, m/s.
+    pub sog_std_mps: Option<f64>,
+    /// SOG median |e|, m/s.
+    pub sog_median_abs_mps: Option<f64>,
+    /// ΔCOG error std, °.
+    pub dcog_std_deg: Option<f64>,
+    /// ΔCOG median |e|, °.
+    pub dcog_median_abs_deg: Option<f64>,
+}
+
+/// A sweep's results.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SweepResult {
+    /// The parameter varied.
+    pub param: SweepParam,
+    /// One point per value and variant.
+    pub points: Vec<SweepPoint>,
+}
+
+/// Runs `variants` at each value of `param` over `ds`.
+pub fn sweep(
+    ds: &Dataset,
+    variants: &[VariantSpec],
+    param: SweepParam,
+    values: &[f64],
+    progress: &ProgressBar,
+) -> Result<SweepResult, EvalError> {
+    let mut points = Vec::new();
+    for &value in values {
+        let setup = EvalSetup {
+            variants: variants.iter().map(|v| param.apply(v, value)).collect(),
+            offset: OffsetChoice::Fixed(0),
+        };
+        let report = evaluate(ds, &setup, progress)?;
+        for v in &report.variants {
+            let e = &v.plausible_reference;
+            points.push(SweepPoint {
+                value,
+                variant: v.name.clone(),
+                sog_std_mps: e.sog_err_mps.map(|s| s.std),
+                sog_median_abs_mps: e.sog_err_mps.map(|s| s.median_abs),
+                dcog_std_deg: e.dcog_err_deg.map(|s| s.std),
+                dcog_median_abs_deg: e.dcog_err_deg.map(|s| s.median_abs),
+            });
+        }
+    }
+    Ok(SweepResult { param, points })
+}
+
+/// The sweep as a Markdown table.
+pub fn sweep_md(result: &SweepResult) -> String {
+    use std::fmt::Write as _;
+    let cell = |v: Option<f64>, d: usize| v.map_or("–".to_owned(), |v| format!("{v:.d$}"));
+    let mut s = format!(
+        "# Sweep of {} (pairs with a plausible reference)\n\n",
+        result.param.name()
+    );
+    let _ = writeln!(s, "| {} | variant | SOG std (m/s) | SOG median \\|e\\| (m/s) | ΔCOG std (°) | ΔCOG median \\|e\\| (°) |", result.param.name());
+    let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: |");
+    for p in &result.points {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} |",
+            p.value,
+            p.variant,
+            cell(p.sog_std_mps, 4),
+            cell(p.sog_median_abs_mps, 4),
+            cell(p.dcog_std_deg, 3),
+            cell(p.dcog_median_abs_deg, 3)
+        );
+    }
+    s
+}
