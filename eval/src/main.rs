@@ -108,8 +108,8 @@ struct VariantArgs {
     /// written (the options below apply to the built-in variants only). Repeatable.
     #[arg(long)]
     config: Vec<PathBuf>,
-    /// Nearest-neighbour matcher: kdtree, delaunay or brute.
-    #[arg(long, default_value_t = MatcherKind::Kdtree)]
+    /// Nearest-neighbour matcher: grid, kdtree, delaunay or brute (all exact).
+    #[arg(long, default_value_t = MatcherKind::Grid)]
     matcher: MatcherKind,
     /// Bearing standard deviation of the sensor model behind the HM/HD weights, degrees
     /// (default: the dataset's model; the data itself is not changed).
@@ -493,7 +493,7 @@ fn list() -> Result<ExitCode> {
     println!("\nStages a variants file can name (see configs/variants/*.json):");
     println!("  weighting.kind: uniform | mean_error (eq. 13) | directional (eq. 12) | inverse_range {{r0_m}}");
     println!("  robust.kind:    none | median_scaled {{kernel: huber | tukey | cauchy | geman_mcclure, c}}");
-    println!("  matcher:        kdtree | delaunay | brute");
+    println!("  matcher:        grid | kdtree | delaunay | brute");
     println!("  selection.kind: all | equal_count {{seed}}");
     println!("  sensor:         {{sigma_r_const_m, sigma_r_per_m, sigma_alpha_rad}}");
     println!("  termination:    {{max_iterations, mean_dist_change_eps_m}}");

@@ -107,7 +107,7 @@ fn every_output_exists_parses_and_agrees_with_the_csv() {
         .map(|v| v["name"].as_str().unwrap())
         .collect();
     assert_eq!(names, ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"]);
-    assert_eq!(config["variants"][3]["matcher"], "kdtree");
+    assert_eq!(config["variants"][3]["matcher"], "grid");
     assert_eq!(config["variants"][3]["weighting"]["kind"], "directional");
     for stem in [
         "sog_error",

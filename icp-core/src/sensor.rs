@@ -120,6 +120,19 @@ impl SensorModel {
     }
 }
 
+impl SensorModel {
+    /// Eq. 9 in the beam frame: the variance along a direction whose angle to the beam has
+    /// cosine² `cos2`: `σ_r² cos² + (σ_α r)² (1 − cos²)`. The same number as
+    /// [`SensorModel::directional_variance`] without any trigonometry (the covariance of eq. 8 is
+    /// diagonal in the beam frame, with `σ_r²` along the beam and `(σ_α r)²` across it).
+    #[inline]
+    pub fn directional_variance_cos2(&self, range_m: f64, cos2: f64) -> f64 {
+        let along = self.sigma_r_m(range_m);
+        let across = self.sigma_alpha_rad * range_m;
+        along * along * cos2 + across * across * (1.0 - cos2)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -201,6 +214,28 @@ mod tests {
         assert!((model.directional_variance(r, a, perpendicular) - across).abs() < 1e-15);
         // Averaged over all directions σ_β² is M²/2 (eq. 5): trace of eq. 8 is M².
         assert!((model.covariance(r, a).trace() - model.mean_error_sq(r)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn beam_frame_form_equals_the_matrix_form() {
+        let model = SensorModel {
+            sigma_r_const_m: 0.02,
+            ..SensorModel::sweep()
+        };
+        for i in 0..200 {
+            let (r, a, b) = (
+                0.5 + 0.2 * i as f64,
+                0.37 * i as f64,
+                -1.1 + 0.29 * i as f64,
+            );
+            let cos2 = (b - a).cos().powi(2);
+            let fast = model.directional_variance_cos2(r, cos2);
+            let matrix = model.directional_variance(r, a, b);
+            assert!(
+                (fast - matrix).abs() <= 1e-12 * matrix,
+                "{fast} vs {matrix}"
+            );
+        }
     }
 
     #[test]

@@ -12,7 +12,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::matching::{BruteForce, Delaunay, KdTree, Matcher, MatcherKind};
+use crate::matching::{BruteForce, Delaunay, Grid, KdTree, Matcher, MatcherKind};
 use crate::minimize::WeightedSvd;
 use crate::robust::{Kernel, MedianScaled, NoRobust, RobustKernel};
 use crate::select::{AllPoints, EqualCount, Selection};
@@ -20,13 +20,13 @@ use crate::weighting::{Directional, MeanError, Uniform, WeightingSpec};
 use crate::{Icp, IcpError, Registrar, SensorModel, Termination};
 
 /// K_ICP: uniform weights, no rejection.
-pub type KIcp<M = KdTree, S = EqualCount> = Icp<S, M, Uniform, NoRobust, WeightedSvd>;
+pub type KIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, NoRobust, WeightedSvd>;
 /// H_ICP: uniform weights, Huber rejection.
-pub type HIcp<M = KdTree, S = EqualCount> = Icp<S, M, Uniform, MedianScaled, WeightedSvd>;
+pub type HIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, MedianScaled, WeightedSvd>;
 /// HM_ICP: mean-error weights (eq. 13), Huber rejection.
-pub type HmIcp<M = KdTree, S = EqualCount> = Icp<S, M, MeanError, MedianScaled, WeightedSvd>;
+pub type HmIcp<M = Grid, S = EqualCount> = Icp<S, M, MeanError, MedianScaled, WeightedSvd>;
 /// HD_ICP: directional weights (eq. 12), Huber rejection.
-pub type HdIcp<M = KdTree, S = EqualCount> = Icp<S, M, Directional, MedianScaled, WeightedSvd>;
+pub type HdIcp<M = Grid, S = EqualCount> = Icp<S, M, Directional, MedianScaled, WeightedSvd>;
 
 fn chain<S, M, W, K>(
     name: &str,
@@ -47,12 +47,13 @@ fn chain<S, M, W, K>(
     }
 }
 
-/// K_ICP with the paper's stages: equal-count selection (seed 0), k-d tree matching.
+/// K_ICP with the paper's stages: equal-count selection (seed 0), nearest-neighbour matching
+/// (on a grid: the same pairs as the paper's Delaunay search).
 pub fn k_icp() -> KIcp {
     chain(
         "K_ICP",
         EqualCount::default(),
-        KdTree,
+        Grid,
         Uniform,
         NoRobust,
         Termination::default(),
@@ -64,7 +65,7 @@ pub fn h_icp() -> HIcp {
     chain(
         "H_ICP",
         EqualCount::default(),
-        KdTree,
+        Grid,
         Uniform,
         MedianScaled::paper_huber(),
         Termination::default(),
@@ -76,7 +77,7 @@ pub fn hm_icp(sensor: SensorModel) -> HmIcp {
     chain(
         "HM_ICP",
         EqualCount::default(),
-        KdTree,
+        Grid,
         MeanError { sensor },
         MedianScaled::paper_huber(),
         Termination::default(),
@@ -88,7 +89,7 @@ pub fn hd_icp(sensor: SensorModel) -> HdIcp {
     chain(
         "HD_ICP",
         EqualCount::default(),
-        KdTree,
+        Grid,
         Directional { sensor },
         MedianScaled::paper_huber(),
         Termination::default(),
@@ -181,6 +182,7 @@ impl VariantSpec {
             MatcherKind::Kdtree => self.build_with(KdTree),
             MatcherKind::Delaunay => self.build_with(Delaunay),
             MatcherKind::Brute => self.build_with(BruteForce),
+            MatcherKind::Grid => self.build_with(Grid),
         })
     }
 
@@ -224,7 +226,7 @@ impl Default for VariantConfig {
     fn default() -> Self {
         Self {
             sensor: SensorModel::sweep(),
-            matcher: MatcherKind::Kdtree,
+            matcher: MatcherKind::Grid,
             selection: SelectionKind::default(),
             huber_c: MedianScaled::PAPER_C,
             termination: Termination::default(),
@@ -353,7 +355,7 @@ mod tests {
         let json = r#"{"name": "T_ICP", "weighting": {"kind": "directional"},
                        "robust": {"kind": "median_scaled", "kernel": "tukey", "c": 4.685}}"#;
         let spec: VariantSpec = serde_json::from_str(json).unwrap();
-        assert_eq!(spec.matcher, MatcherKind::Kdtree);
+        assert_eq!(spec.matcher, MatcherKind::Grid);
         assert_eq!(spec.sensor, SensorModel::sweep());
         assert!(spec.build().is_ok());
         let typo = r#"{"name": "T", "weighting": {"kind": "uniform"}, "robust": {"kind": "none"}, "matchr": "brute"}"#;

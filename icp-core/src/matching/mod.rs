@@ -10,10 +10,12 @@ use crate::IcpError;
 
 mod brute;
 mod delaunay;
+mod grid;
 mod kdtree;
 
 pub use brute::BruteForce;
 pub use delaunay::Delaunay;
+pub use grid::Grid;
 pub use kdtree::KdTree;
 
 /// One matched pair: source point `src` (moved) and its nearest reference point `dst`.
@@ -34,7 +36,9 @@ pub trait NearestIndex: Send + Sync {
     /// exactly the same distance any may be returned.
     fn nearest(&self, query: &Point2<f64>) -> (usize, f64);
 
-    /// Fills `out` (cleared first) with one correspondence per moved source point.
+    /// Fills `out` with one correspondence per moved source point. When `out` already holds one
+    /// per point (the previous iteration's), an index may use them as hints; the result is the
+    /// same either way.
     fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Vec<Correspondence>) {
         out.clear();
         out.extend(moved_src.iter().enumerate().map(|(src, q)| {
@@ -57,12 +61,15 @@ pub trait Matcher: Send + Sync {
 #[serde(rename_all = "snake_case")]
 pub enum MatcherKind {
     /// k-d tree ([`KdTree`]).
-    #[default]
     Kdtree,
     /// Delaunay nearest vertex, as in the paper ([`Delaunay`]).
     Delaunay,
     /// Exhaustive search ([`BruteForce`]), the oracle for tests.
     Brute,
+    /// Uniform grid, warm-started by the previous match ([`Grid`]): the default, as fast as
+    /// any and with the same pairs as brute force.
+    #[default]
+    Grid,
 }
 
 impl std::str::FromStr for MatcherKind {
@@ -72,8 +79,9 @@ impl std::str::FromStr for MatcherKind {
             "kdtree" | "kd-tree" => Ok(Self::Kdtree),
             "delaunay" => Ok(Self::Delaunay),
             "brute" | "brute-force" => Ok(Self::Brute),
+            "grid" => Ok(Self::Grid),
             other => Err(format!(
-                "unknown matcher {other:?}: expected kdtree, delaunay or brute"
+                "unknown matcher {other:?}: expected kdtree, delaunay, grid or brute"
             )),
         }
     }
@@ -85,6 +93,7 @@ impl std::fmt::Display for MatcherKind {
             Self::Kdtree => "kdtree",
             Self::Delaunay => "delaunay",
             Self::Brute => "brute",
+            Self::Grid => "grid",
         })
     }
 }
@@ -130,9 +139,14 @@ mod tests {
         let brute = BruteForce.build(reference).unwrap();
         let kd = KdTree.build(reference).unwrap();
         let dl = Delaunay.build(reference).unwrap();
+        let gr = Grid.build(reference).unwrap();
         for q in queries {
             let want = brute.nearest(q);
-            for (name, got) in [("kdtree", kd.nearest(q)), ("delaunay", dl.nearest(q))] {
+            for (name, got) in [
+                ("kdtree", kd.nearest(q)),
+                ("delaunay", dl.nearest(q)),
+                ("grid", gr.nearest(q)),
+            ] {
                 assert_eq!(got.1, want.1, "{name} distance for {q:?}");
                 // Continuous random inputs have no ties, so the index must agree too.
                 assert_eq!(got.0, want.0, "{name} index for {q:?}");
@@ -176,6 +190,7 @@ mod tests {
             BruteForce.build(&reference).unwrap().nearest(&q),
             KdTree.build(&reference).unwrap().nearest(&q),
             Delaunay.build(&reference).unwrap().nearest(&q),
+            Grid.build(&reference).unwrap().nearest(&q),
         ] {
             assert!(i == 0 || i == 2);
             assert!((d - 0.01).abs() < 1e-15);
@@ -195,6 +210,50 @@ mod tests {
         assert!(BruteForce.build(&[]).is_err());
         assert!(KdTree.build(&[]).is_err());
         assert!(Delaunay.build(&[]).is_err());
+        assert!(Grid.build(&[]).is_err());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Warm-started matching (hints from a previous, shifted query set) gives exactly the
+        /// pairs of a cold brute-force search, ties resolved to the lowest index.
+        #[test]
+        fn warm_grid_matching_equals_brute_force(
+            reference in prop::collection::vec((-40.0..40.0f64, -40.0..40.0f64), 1..300),
+            queries in prop::collection::vec((-60.0..60.0f64, -60.0..60.0f64), 1..200),
+            (dx, dy) in (-3.0..3.0f64, -3.0..3.0f64),
+            dup in 0usize..5,
+        ) {
+            let mut reference = points(&reference);
+            // Duplicates make ties.
+            for i in 0..dup.min(reference.len()) {
+                let p = reference[i];
+                reference.push(p);
+            }
+            let queries = points(&queries);
+            let brute = BruteForce.build(&reference).unwrap();
+            let grid = Grid.build(&reference).unwrap();
+            let mut want = Vec::new();
+            brute.match_all(&queries, &mut want);
+            let mut got = Vec::new();
+            let shifted: Vec<_> = queries.iter().map(|q| q + nalgebra::Vector2::new(dx, dy)).collect();
+            grid.match_all(&shifted, &mut got); // cold, at other positions
+            grid.match_all(&queries, &mut got); // warm, hinted by those
+            prop_assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn grid_handles_degenerate_layouts() {
+        for reference in [
+            points(&[(3.0, 3.0)]),
+            points(&[(0.0, 0.0), (0.0, 5.0), (0.0, 9.0)]),
+            points(&[(1e6, -1e6), (1e6 + 1e-3, -1e6), (-1e6, 1e6)]),
+            points(&[(2.0, 2.0); 5]),
+        ] {
+            let queries = points(&[(0.0, 0.0), (1e7, 1e7), (-3.0, 4.0), (1e6, -1e6 + 0.1)]);
+            check_all_agree(&reference, &queries);
+        }
     }
 
     #[test]

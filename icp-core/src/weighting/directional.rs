@@ -16,20 +16,26 @@ pub struct Directional {
 }
 
 impl PairWeighting for Directional {
+    /// Computed without trigonometry: the cosine of the angle between the pair's line and a
+    /// point's beam is `d · p / (|d| r)` (in scan k's frame for the source point, whose beam
+    /// direction `R p` is the moved point minus the translation; in scan k+1's frame for the
+    /// reference point), and eq. 9 in the beam frame needs only its square.
     #[inline]
     fn weight(&self, pair: &PairView<'_>) -> f64 {
         let (src, dst) = (pair.src, pair.dst);
         let d = dst.point - pair.src_moved;
-        let g = if d.x == 0.0 && d.y == 0.0 {
+        let d2 = d.norm_squared();
+        let g = if d2 == 0.0 {
             0.5 * (self.sensor.mean_error_sq(src.range_m) + self.sensor.mean_error_sq(dst.range_m))
         } else {
-            let beta_ref = d.y.atan2(d.x);
-            let beta_src = beta_ref - pair.rotation_ref_src.angle();
+            let beam_src = pair.rotation_ref_src * src.point.coords; // R p, in scan k+1's axes
+            let cos2 = |dot: f64, r: f64| (dot * dot / (d2 * r * r)).min(1.0);
             self.sensor
-                .directional_variance(src.range_m, src.bearing_rad, beta_src)
-                + self
-                    .sensor
-                    .directional_variance(dst.range_m, dst.bearing_rad, beta_ref)
+                .directional_variance_cos2(src.range_m, cos2(d.dot(&beam_src), src.range_m))
+                + self.sensor.directional_variance_cos2(
+                    dst.range_m,
+                    cos2(d.dot(&dst.point.coords), dst.range_m),
+                )
         };
         1.0 / g.sqrt()
     }
@@ -111,6 +117,39 @@ mod tests {
             rotation_ref_src: UnitComplex::identity(),
         });
         assert!((a - b).abs() < 1e-9 * a, "{a} vs {b}");
+    }
+
+    #[test]
+    fn equals_eq_9_in_angle_form() {
+        // The trig-free weight against eq. 9 with explicit angles: β the pair's direction in
+        // scan k+1's frame, β − θ in scan k's frame.
+        let sensor = SensorModel {
+            sigma_r_const_m: 0.01,
+            ..SensorModel::sweep()
+        };
+        let w = Directional { sensor };
+        for i in 0..100 {
+            let theta = -0.5 + 0.01 * i as f64;
+            let src = ret(3.0 + 0.3 * i as f64, 0.21 * i as f64);
+            let dst = ret(4.0 + 0.25 * i as f64, 0.05 + 0.2 * i as f64);
+            let rot = UnitComplex::new(theta);
+            let moved = rot * src.point + nalgebra::Vector2::new(0.3, -0.2);
+            let d = dst.point - moved;
+            let beta = d.y.atan2(d.x);
+            let g = sensor.directional_variance(src.range_m, src.bearing_rad, beta - theta)
+                + sensor.directional_variance(dst.range_m, dst.bearing_rad, beta);
+            let got = w.weight(&PairView {
+                src: &src,
+                dst: &dst,
+                src_moved: moved,
+                rotation_ref_src: rot,
+            });
+            assert!(
+                (got - 1.0 / g.sqrt()).abs() < 1e-9 * got,
+                "{got} vs {}",
+                1.0 / g.sqrt()
+            );
+        }
     }
 
     #[test]
