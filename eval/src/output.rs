@@ -236,7 +236,23 @@ pub fn table_md(report: &RunReport) -> String {
         "\nFailed registrations: {failed}. Skipped pairs: {}.",
         d.skipped_pairs.len()
     );
+    let degenerate: usize = report
+        .variants
+        .iter()
+        .map(|v| v.degenerate_pairs.len())
+        .sum();
+    let _ = writeln!(
+        out,
+        "Degenerate registrations (flagged by their conditioning, left out of the statistics): {degenerate}."
+    );
     for v in &report.variants {
+        if !v.degenerate_pairs.is_empty() {
+            let _ = writeln!(
+                out,
+                "- {} degenerate on pairs {:?}",
+                v.name, v.degenerate_pairs
+            );
+        }
         for f in &v.failures {
             let _ = writeln!(out, "- {} failed on pair {}: {}", v.name, f.pair, f.reason);
         }

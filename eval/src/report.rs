@@ -88,6 +88,9 @@ pub struct PairRecord {
     pub trans_err_m: Option<f64>,
     /// Rotation error of `t_ref_src`, degrees, where the reference is a rigid 2D pose.
     pub rot_err_deg: Option<f64>,
+    /// Conditioning of the registration: smallest over largest eigenvalue of its Hessian
+    /// (below `icp_core::icp::DEGENERATE_RATIO` the pair is flagged `degenerate`).
+    pub cond_ratio: Option<f64>,
     /// False when the reference step is flagged as implausible (or absent).
     pub ref_plausible: bool,
     /// Wall time of the registration, µs (not reproducible; last column so checks can drop it).
@@ -151,6 +154,9 @@ pub struct VariantSummary {
     pub pairs_ok: usize,
     /// Pairs that failed, with their reasons.
     pub failures: Vec<Failure>,
+    /// Pairs registered but flagged degenerate (left out of the statistics).
+    #[serde(default)]
+    pub degenerate_pairs: Vec<usize>,
     /// Fraction of the registered pairs that converged.
     pub converged_fraction: f64,
     /// Mean iterations.
@@ -427,7 +433,14 @@ fn record(
         reference: pair.reference,
         dt_s,
         status: match &run.result {
-            Ok(_) => "ok".into(),
+            Ok(r) => match r.conditioning {
+                Some(c) if c.degenerate() => format!(
+                    "degenerate: conditioning ratio {:.1e} < {}",
+                    c.ratio,
+                    icp_core::icp::DEGENERATE_RATIO
+                ),
+                _ => "ok".into(),
+            },
             Err(e) => format!("failed: {e}"),
         },
         converged: reg.is_some_and(|r| r.converged()),
@@ -446,6 +459,7 @@ fn record(
         dcog_err_deg: both(&|m, r| wrap_deg(m.dcog_deg - r.dcog_deg)),
         rot_est_dps: est.map(|m| m.rot_dps),
         rot_ref_dps: reference.map(|r| r.dcog_deg / dt_s),
+        cond_ratio: reg.and_then(|r| r.conditioning).map(|c| c.ratio),
         trans_err_m: truth_err.map(|e| e.0),
         rot_err_deg: truth_err.map(|e| e.1),
         ref_plausible: plausible,
@@ -504,6 +518,11 @@ fn summarize(
         iterations_max: ok.iter().map(|r| r.iterations).max().unwrap_or(0),
         all_pairs: error_stats(with_ref.clone()),
         plausible_reference: error_stats(with_ref.filter(|r| r.ref_plausible)),
+        degenerate_pairs: rows
+            .iter()
+            .filter(|r| r.status.starts_with("degenerate"))
+            .map(|r| r.pair)
+            .collect(),
         trajectory: trajectory_stats(ds, pairs, traj, failures.len()),
         timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         failures,

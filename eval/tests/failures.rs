@@ -60,3 +60,49 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
     let table = eval::output::table_md(&report);
     assert!(table.contains("Failed registrations: 4."), "{table}");
 }
+
+/// Two scans of a straight corridor register to numbers, but the motion along the corridor is
+/// not observable: the pair is flagged degenerate by its conditioning and kept out of the
+/// statistics, not reported as a precise motion.
+#[test]
+fn a_corridor_pair_is_flagged_degenerate() {
+    let mut ds = generate(&Scenario {
+        n_scans: 5,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let corridor = |shift: f64, t: f64| {
+        let mut pts = Vec::new();
+        for y in [3.0, -3.0] {
+            for i in 0..200 {
+                pts.push([-20.0 + 0.2 * i as f64 + shift, y]);
+            }
+        }
+        Scan::from_cartesian(&pts)
+            .unwrap()
+            .with_timestamp(t)
+            .unwrap()
+    };
+    ds.scans[2] = corridor(0.0, 0.4);
+    ds.scans[3] = corridor(-0.07, 0.6);
+    let setup = EvalSetup {
+        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
+        offset: OffsetChoice::Fixed(0),
+    };
+    let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
+    let v = &report.variants[0];
+    // Pairs 1 (harbour onto corridor) and 2 (corridor onto corridor) are matched against the
+    // corridor's two walls; pair 3 is matched against the harbour.
+    assert_eq!(v.degenerate_pairs, vec![1, 2]);
+    assert_eq!(v.pairs_ok, 2);
+    let row = &report.pairs[2];
+    assert!(
+        row.status.starts_with("degenerate: conditioning ratio"),
+        "{}",
+        row.status
+    );
+    assert!(row.cond_ratio.unwrap() < icp_core::icp::DEGENERATE_RATIO);
+    let ratios: Vec<f64> = report.pairs.iter().map(|r| r.cond_ratio.unwrap()).collect();
+    assert!(ratios[0] > 0.05 && ratios[3] > 0.05, "{ratios:?}");
+    assert_eq!(v.all_pairs.pairs, 2);
+}

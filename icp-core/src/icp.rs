@@ -1,7 +1,7 @@
 //! The ICP loop (Naus & Marchel 2019, Algorithm 1 and eqs. 14, 21, 22) and the
 //! [`Registrar`] trait every registration method implements.
 
-use nalgebra::{Isometry2, Point2};
+use nalgebra::{Isometry2, Matrix3, Point2, SymmetricEigen, Vector2, Vector3};
 
 use crate::error::ScanRole;
 use crate::matching::{Correspondence, Matcher, NearestIndex};
@@ -28,6 +28,99 @@ pub struct Registration {
     pub weight_sum: f64,
     /// Mean pair distance after the final estimate, metres.
     pub mean_dist_m: f64,
+    /// How well the final pairs constrain the motion (`None` with fewer than 3 usable normals).
+    pub conditioning: Option<Conditioning>,
+}
+
+/// The conditioning of the registration at its solution: the eigenvalues of the Gauss-Newton
+/// Hessian `H = Σ J Jᵀ / N` of eq. 14 (unit weights: the geometry of the final pairs)
+/// linearised along the reference surface normals (point-to-line), with
+/// `J = [n_x, n_y, (p − m) × n / L]`: `n` the reference normal from
+/// its scan neighbours, `p` the moved source point, `m` their centroid and `L` their RMS
+/// distance from it, so all three directions are in metres. A corridor or a single wall
+/// leaves one direction unconstrained (a near-zero eigenvalue); point-to-point ICP still
+/// returns a number there, which is why it is flagged rather than trusted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Conditioning {
+    /// Eigenvalues of H, ascending (dimensionless: mean squared normal components).
+    pub eigenvalues: [f64; 3],
+    /// Smallest over largest eigenvalue, in [0, 1].
+    pub ratio: f64,
+}
+
+/// Below this conditioning ratio a registration is flagged as degenerate. A scene with walls
+/// in every direction scores ~0.1–0.5; a straight corridor scores below 0.001.
+pub const DEGENERATE_RATIO: f64 = 0.01;
+
+impl Conditioning {
+    /// True when one motion direction is barely constrained.
+    pub fn degenerate(&self) -> bool {
+        self.ratio.is_nan() || self.ratio < DEGENERATE_RATIO
+    }
+}
+
+/// Reference neighbours farther apart than this do not define a normal, metres.
+const NORMAL_MAX_GAP_M: f64 = 1.0;
+
+/// The conditioning of the final pairs (see [`Conditioning`]).
+fn conditioning(
+    moved: &[Point2<f64>],
+    dst: &[Point2<f64>],
+    pairs: &[Correspondence],
+) -> Option<Conditioning> {
+    let normal = |j: usize| -> Option<Vector2<f64>> {
+        let near = |k: usize| {
+            dst.get(k)
+                .filter(|q| (*q - dst[j]).norm() <= NORMAL_MAX_GAP_M)
+        };
+        let (a, b) = (
+            j.checked_sub(1).and_then(near).unwrap_or(&dst[j]),
+            near(j + 1).unwrap_or(&dst[j]),
+        );
+        let t = b - a;
+        let len = t.norm();
+        (len > 0.0).then(|| Vector2::new(-t.y, t.x) / len)
+    };
+    if pairs.is_empty() {
+        return None;
+    }
+    let n = pairs.len() as f64;
+    let m = pairs
+        .iter()
+        .map(|c| moved[c.src].coords)
+        .sum::<Vector2<f64>>()
+        / n;
+    let l = (pairs
+        .iter()
+        .map(|c| (moved[c.src].coords - m).norm_squared())
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    if l.is_nan() || l <= 0.0 {
+        return None;
+    }
+    let mut h = Matrix3::zeros();
+    let mut used = 0;
+    for c in pairs {
+        let Some(nrm) = normal(c.dst) else { continue };
+        let r = moved[c.src].coords - m;
+        let j = Vector3::new(nrm.x, nrm.y, (r.x * nrm.y - r.y * nrm.x) / l);
+        h += j * j.transpose();
+        used += 1;
+    }
+    if used < 3 {
+        return None;
+    }
+    let e = SymmetricEigen::new(h / used as f64).eigenvalues;
+    let mut ev = [e[0], e[1], e[2]];
+    ev.sort_by(f64::total_cmp);
+    let eigenvalues = [ev[0].max(0.0), ev[1], ev[2]];
+    let ratio = if eigenvalues[2] > 0.0 {
+        eigenvalues[0] / eigenvalues[2]
+    } else {
+        0.0
+    };
+    Some(Conditioning { eigenvalues, ratio })
 }
 
 impl Registration {
@@ -221,6 +314,7 @@ where
             n_pairs: pairs.len(),
             weight_sum: last_weight_sum,
             mean_dist_m,
+            conditioning: conditioning(&moved, &dst_pts, &pairs),
         })
     }
 }

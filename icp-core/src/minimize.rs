@@ -1,6 +1,6 @@
 //! Minimisation of eq. 14, Algorithm 1 step 5: the weighted SVD (Kabsch) solution.
 
-use nalgebra::{Isometry2, Matrix2, Point2, Rotation2, Translation2, UnitComplex, Vector2};
+use nalgebra::{Isometry2, Matrix2, Point2, Translation2, UnitComplex, Vector2};
 
 use crate::matching::Correspondence;
 use crate::IcpError;
@@ -18,12 +18,16 @@ pub trait Minimizer: Send + Sync {
     ) -> Result<Isometry2<f64>, IcpError>;
 }
 
-/// Weighted Kabsch by SVD (Naus & Marchel 2019, eqs. 15–20; the printed eqs. 16, 19 and 20
-/// have index and direction slips, this is the standard solution of eq. 14):
-/// weighted centroids `m_p`, `m_q` (eq. 15); `C = Σ w (p − m_p)(q − m_q)ᵀ / Σ w`;
-/// `C = U Σ Vᵀ`; `R = V diag(1, det(V Uᵀ)) Uᵀ` (the reflection guard); `T = m_q − R m_p`.
+/// Weighted Kabsch (Naus & Marchel 2019, eqs. 15–20; the printed eqs. 16, 19 and 20 have
+/// index and direction slips, this is the standard solution of eq. 14): weighted centroids
+/// `m_p`, `m_q` (eq. 15); `C = Σ w (p − m_p)(q − m_q)ᵀ / Σ w`; the paper's `C = U Σ Vᵀ`,
+/// `R = V diag(1, det(V Uᵀ)) Uᵀ` (the reflection guard); `T = m_q − R m_p`.
+///
+/// In 2D that SVD solution has a closed form, `θ = atan2(C₀₁ − C₁₀, C₀₀ + C₁₁)`, used here:
+/// no iteration, and two identical scans give exactly zero motion. The tests hold it against
+/// nalgebra's and faer's SVDs with the reflection guard.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct WeightedSvd;
+pub struct WeightedKabsch;
 
 /// Weighted centroids and cross-covariance of the pairs (eqs. 15, 17, 18).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,7 +83,7 @@ pub fn weighted_moments(
     })
 }
 
-impl Minimizer for WeightedSvd {
+impl Minimizer for WeightedKabsch {
     fn solve(
         &self,
         src: &[Point2<f64>],
@@ -90,20 +94,15 @@ impl Minimizer for WeightedSvd {
         let WeightedMoments {
             m_p,
             m_q,
-            cross_cov,
+            cross_cov: c,
             ..
         } = weighted_moments(src, dst, pairs, weights)?;
-        let svd = cross_cov.svd(true, true);
-        let (u, v_t) = match (svd.u, svd.v_t) {
-            (Some(u), Some(v_t)) => (u, v_t),
-            _ => return Err(IcpError::NonFiniteTransform),
-        };
-        let v = v_t.transpose();
-        let guard = Matrix2::new(1.0, 0.0, 0.0, (v * u.transpose()).determinant().signum());
-        let r = v * guard * u.transpose();
-        let rotation = UnitComplex::from_rotation_matrix(&Rotation2::from_matrix_unchecked(r));
-        let t = m_q - rotation * m_p;
-        if !(t.x.is_finite() && t.y.is_finite() && rotation.angle().is_finite()) {
+        // tr(R C) = cos θ (C00 + C11) + sin θ (C01 − C10) is largest at this θ: the proper
+        // rotation of the SVD solution with the reflection guard (eqs. 18–20).
+        let theta = (c[(0, 1)] - c[(1, 0)]).atan2(c[(0, 0)] + c[(1, 1)]);
+        let rotation = UnitComplex::new(theta);
+        let t = m_q - rotation * m_p; // eq. 20 (T = m_q − R m_p)
+        if !(t.x.is_finite() && t.y.is_finite() && theta.is_finite()) {
             return Err(IcpError::NonFiniteTransform);
         }
         Ok(Isometry2::from_parts(Translation2::from(t), rotation))
@@ -125,7 +124,17 @@ mod tests {
             .collect()
     }
 
-    /// Closed-form 2D solution, an independent oracle: θ = atan2(Σw (p×q), Σw (p·q)).
+    /// nalgebra's SVD of the cross-covariance with the reflection guard: the paper's recipe,
+    /// an oracle for the closed form.
+    fn nalgebra_svd_rotation(c: &Matrix2<f64>) -> f64 {
+        let svd = c.svd(true, true);
+        let (u, v) = (svd.u.unwrap(), svd.v_t.unwrap().transpose());
+        let guard = Matrix2::new(1.0, 0.0, 0.0, (v * u.transpose()).determinant().signum());
+        let r = v * guard * u.transpose();
+        r[(1, 0)].atan2(r[(0, 0)])
+    }
+
+    /// The 2D solution written from the point sums: θ = atan2(Σw (p×q), Σw (p·q)).
     fn closed_form(src: &[Point2<f64>], dst: &[Point2<f64>], w: &[f64]) -> f64 {
         let WeightedMoments { m_p, m_q, .. } =
             weighted_moments(src, dst, &identity_pairs(src.len()), w).unwrap();
@@ -166,15 +175,16 @@ mod tests {
             let pairs = identity_pairs(src.len());
             // Exact data: the transform itself.
             let dst: Vec<_> = src.iter().map(|p| t * p).collect();
-            let est = WeightedSvd.solve(&src, &dst, &pairs, &w).unwrap();
+            let est = WeightedKabsch.solve(&src, &dst, &pairs, &w).unwrap();
             prop_assert!((est.translation.vector - t.translation.vector).norm() < 1e-9);
             prop_assert!((est.rotation.angle() - t.rotation.angle()).abs() < 1e-10);
             // Noisy data: the SVD, the closed form and faer agree on the least-squares optimum.
             let noisy: Vec<_> = dst.iter().zip(&noise).map(|(q, &(a, b))| q + Vector2::new(a, b)).collect();
-            let est = WeightedSvd.solve(&src, &noisy, &pairs, &w).unwrap();
+            let est = WeightedKabsch.solve(&src, &noisy, &pairs, &w).unwrap();
             let c = weighted_moments(&src, &noisy, &pairs, &w).unwrap().cross_cov;
             let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
             prop_assert!(wrap(est.rotation.angle() - closed_form(&src, &noisy, &w)).abs() < 1e-9);
+            prop_assert!(wrap(est.rotation.angle() - nalgebra_svd_rotation(&c)).abs() < 1e-9);
             prop_assert!(wrap(est.rotation.angle() - faer_rotation(&c)).abs() < 1e-9);
         }
     }
@@ -190,7 +200,7 @@ mod tests {
         ];
         let dst: Vec<_> = src.iter().map(|p| Point2::new(p.x, -p.y)).collect();
         let w = [1.0; 4];
-        let est = WeightedSvd
+        let est = WeightedKabsch
             .solve(&src, &dst, &identity_pairs(4), &w)
             .unwrap();
         let r = est.rotation.to_rotation_matrix().into_inner();
@@ -210,6 +220,18 @@ mod tests {
     }
 
     #[test]
+    fn identical_point_sets_give_exactly_the_identity() {
+        let src: Vec<_> = (0..50)
+            .map(|i| Point2::new((i as f64 * 0.7).sin() * 20.0, (i as f64 * 1.3).cos() * 15.0))
+            .collect();
+        let w: Vec<f64> = (0..50).map(|i| 0.5 + (i % 7) as f64).collect();
+        let est = WeightedKabsch
+            .solve(&src, &src, &identity_pairs(50), &w)
+            .unwrap();
+        assert_eq!(est, Isometry2::identity());
+    }
+
+    #[test]
     fn bad_weights_are_errors() {
         let src = [
             Point2::new(0.0, 0.0),
@@ -218,15 +240,15 @@ mod tests {
         ];
         let p = identity_pairs(3);
         assert_eq!(
-            WeightedSvd.solve(&src, &src, &p, &[0.0; 3]),
+            WeightedKabsch.solve(&src, &src, &p, &[0.0; 3]),
             Err(IcpError::DegenerateWeights { sum: 0.0 })
         );
         assert!(matches!(
-            WeightedSvd.solve(&src, &src, &p, &[1.0, f64::NAN, 1.0]),
+            WeightedKabsch.solve(&src, &src, &p, &[1.0, f64::NAN, 1.0]),
             Err(IcpError::InvalidWeight { pair: 1, .. })
         ));
         assert!(matches!(
-            WeightedSvd.solve(&src, &src, &p, &[1.0]),
+            WeightedKabsch.solve(&src, &src, &p, &[1.0]),
             Err(IcpError::LengthMismatch { .. })
         ));
     }

@@ -13,20 +13,20 @@
 use serde::{Deserialize, Serialize};
 
 use crate::matching::{BruteForce, Delaunay, Grid, KdTree, Matcher, MatcherKind};
-use crate::minimize::WeightedSvd;
+use crate::minimize::WeightedKabsch;
 use crate::robust::{Kernel, MedianScaled, NoRobust, RobustKernel};
 use crate::select::{AllPoints, EqualCount, Selection};
 use crate::weighting::{Directional, MeanError, Uniform, WeightingSpec};
 use crate::{Icp, IcpError, Registrar, SensorModel, Termination};
 
 /// K_ICP: uniform weights, no rejection.
-pub type KIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, NoRobust, WeightedSvd>;
+pub type KIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, NoRobust, WeightedKabsch>;
 /// H_ICP: uniform weights, Huber rejection.
-pub type HIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, MedianScaled, WeightedSvd>;
+pub type HIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, MedianScaled, WeightedKabsch>;
 /// HM_ICP: mean-error weights (eq. 13), Huber rejection.
-pub type HmIcp<M = Grid, S = EqualCount> = Icp<S, M, MeanError, MedianScaled, WeightedSvd>;
+pub type HmIcp<M = Grid, S = EqualCount> = Icp<S, M, MeanError, MedianScaled, WeightedKabsch>;
 /// HD_ICP: directional weights (eq. 12), Huber rejection.
-pub type HdIcp<M = Grid, S = EqualCount> = Icp<S, M, Directional, MedianScaled, WeightedSvd>;
+pub type HdIcp<M = Grid, S = EqualCount> = Icp<S, M, Directional, MedianScaled, WeightedKabsch>;
 
 fn chain<S, M, W, K>(
     name: &str,
@@ -35,14 +35,14 @@ fn chain<S, M, W, K>(
     weighting: W,
     robust: K,
     termination: Termination,
-) -> Icp<S, M, W, K, WeightedSvd> {
+) -> Icp<S, M, W, K, WeightedKabsch> {
     Icp {
         name: name.to_owned(),
         selection,
         matcher,
         weighting,
         robust,
-        minimizer: WeightedSvd,
+        minimizer: WeightedKabsch,
         termination,
     }
 }

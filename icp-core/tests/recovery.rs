@@ -144,27 +144,18 @@ fn small_motion_from_identity_is_recovered_on_structured_scan() {
 }
 
 #[test]
-fn identical_scans_give_zero_motion_to_machine_precision() {
+fn identical_scans_give_exactly_zero_motion() {
     let pts = structured_points(2);
     let scan = Scan::from_cartesian(&pts).unwrap();
     for reg in registrars() {
         let out = reg.register(&scan, &scan, Isometry2::identity()).unwrap();
-        // The SVD's rotation is the identity to rounding, not bit-exactly.
-        assert!(
-            out.t_ref_src.translation.vector.norm() < 1e-12,
-            "{}",
-            reg.name()
-        );
-        assert!(
-            out.t_ref_src.rotation.angle().abs() < 1e-14,
-            "{}",
-            reg.name()
-        );
+        assert_eq!(out.t_ref_src, Isometry2::identity(), "{}", reg.name());
         assert!(
             out.converged() && out.iterations <= 2,
             "{}: {out:?}",
             reg.name()
         );
+        assert_eq!(out.mean_dist_m, 0.0);
     }
 }
 
@@ -275,4 +266,43 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
         reg.register(&good, &good, nan_init),
         Err(IcpError::NonFinite { .. })
     ));
+}
+
+/// The conditioning separates a scene that constrains every direction from a corridor.
+#[test]
+fn conditioning_flags_a_corridor_and_not_a_harbour() {
+    let reg = builtin("HD_ICP", &VariantConfig::default())
+        .unwrap()
+        .build()
+        .unwrap();
+    let harbour = structured_points(4);
+    let t = Isometry2::new(Vector2::new(-0.2, 0.05), 0.01);
+    let out = reg
+        .register(
+            &Scan::from_cartesian(&harbour).unwrap(),
+            &Scan::from_cartesian(&transform(&t, &harbour)).unwrap(),
+            Isometry2::identity(),
+        )
+        .unwrap();
+    let c = out.conditioning.unwrap();
+    assert!(c.ratio > 0.05 && !c.degenerate(), "{c:?}");
+    let corridor = |shift: f64| -> Vec<[f64; 2]> {
+        [3.0, -3.0]
+            .iter()
+            .flat_map(|&y| (0..200).map(move |i| [-20.0 + 0.2 * i as f64 + shift, y]))
+            .collect()
+    };
+    let out = reg
+        .register(
+            &Scan::from_cartesian(&corridor(0.0)).unwrap(),
+            &Scan::from_cartesian(&corridor(-0.07)).unwrap(),
+            Isometry2::identity(),
+        )
+        .unwrap();
+    let c = out.conditioning.unwrap();
+    assert!(c.ratio < 1e-3 && c.degenerate(), "{c:?}");
+    assert!(
+        (c.eigenvalues[2] - 1.0).abs() < 1e-9,
+        "all normals along y: {c:?}"
+    );
 }
