@@ -149,7 +149,7 @@ fn without_timing(dir: &Path) -> (String, serde_json::Value) {
 }
 
 #[test]
-fn one_and_two_threads_give_identical_results() {
+fn one_two_and_eight_threads_give_identical_results() {
     let (a, b) = (common::scratch_dir("det_1"), common::scratch_dir("det_2"));
     run_small(&a, "1", false);
     run_small(&b, "2", false);
@@ -167,6 +167,25 @@ fn one_and_two_threads_give_identical_results() {
 fn bad_arguments_exit_2_with_a_message() {
     let dir = common::scratch_dir("cli_bad");
     let out = dir.to_str().unwrap();
+    // An output directory that cannot be made: its parent is a file.
+    std::fs::write(dir.join("file"), "x").unwrap();
+    let unwritable = dir.join("file").join("out");
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        "synthetic",
+        "--scans",
+        "3",
+        "--quiet",
+        "--out",
+        unwritable.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("writing the reports to") && err.contains("file/out"),
+        "{err}"
+    );
     let o = icp_eval(&["run", "--dataset", "nowhere", "--out", out]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown dataset"));

@@ -306,3 +306,86 @@ fn conditioning_flags_a_corridor_and_not_a_harbour() {
         "all normals along y: {c:?}"
     );
 }
+
+/// Scans a billion metres from the sensor origin register as they do near it: with uniform
+/// weights, the same displacement of the scanned points (at their centroid, to 1e-4 m) and the
+/// same rotation; with range-based weights, finite numbers.
+/// The sensor-frame translation is not compared: at a lever arm of 1e9 m a rotation
+/// resolvable only to ~1e-9 rad moves it by metres.
+#[test]
+fn huge_coordinates_register_like_near_ones() {
+    let near = structured_points(5);
+    let offset = Vector2::new(1e9, -1e9);
+    let far: Vec<[f64; 2]> = near
+        .iter()
+        .map(|p| [p[0] + offset.x, p[1] + offset.y])
+        .collect();
+    let shift = |pts: &[[f64; 2]]| -> Vec<[f64; 2]> {
+        pts.iter().map(|p| [p[0] - 0.3, p[1] + 0.1]).collect()
+    };
+    let centroid = |pts: &[[f64; 2]]| {
+        let n = pts.len() as f64;
+        nalgebra::Point2::new(
+            pts.iter().map(|p| p[0]).sum::<f64>() / n,
+            pts.iter().map(|p| p[1]).sum::<f64>() / n,
+        )
+    };
+    for reg in registrars() {
+        let run = |pts: &[[f64; 2]]| {
+            let out = reg
+                .register(
+                    &Scan::from_cartesian(pts).unwrap(),
+                    &Scan::from_cartesian(&shift(pts)).unwrap(),
+                    Isometry2::identity(),
+                )
+                .unwrap();
+            let c = centroid(pts);
+            (out.t_ref_src * c - c, out.t_ref_src.rotation.angle())
+        };
+        let ((d_near, r_near), (d_far, r_far)) = (run(&near), run(&far));
+        assert!(
+            d_far.iter().all(|v| v.is_finite()) && r_far.is_finite(),
+            "{}",
+            reg.name()
+        );
+        // HM, HD and IR weigh by range, and every range is ~1.4e9 m far away: their
+        // solutions legitimately differ. Uniform weights must not.
+        if reg.name() == "K_ICP" || reg.name() == "H_ICP" {
+            assert!(
+                (d_near - d_far).norm() < 1e-4,
+                "{}: {d_near:?} vs {d_far:?}",
+                reg.name()
+            );
+            assert!(
+                (r_near - r_far).abs() < 1e-8,
+                "{}: {r_near} vs {r_far}",
+                reg.name()
+            );
+        }
+    }
+}
+
+/// A registration that has not settled stops at the iteration limit and says so.
+#[test]
+fn the_iteration_limit_stops_a_registration() {
+    let pts = structured_points(6);
+    let t = Isometry2::new(Vector2::new(-2.0, 1.5), 0.3);
+    let config = VariantConfig {
+        termination: icp_core::Termination {
+            max_iterations: 3,
+            mean_dist_change_eps_m: 0.0,
+        },
+        ..Default::default()
+    };
+    let reg = builtin("HD_ICP", &config).unwrap().build().unwrap();
+    let out = reg
+        .register(
+            &Scan::from_cartesian(&pts).unwrap(),
+            &Scan::from_cartesian(&transform(&t, &pts)).unwrap(),
+            Isometry2::identity(),
+        )
+        .unwrap();
+    assert_eq!(out.iterations, 3);
+    assert_eq!(out.stop, icp_core::StopReason::MaxIterations);
+    assert!(!out.converged());
+}

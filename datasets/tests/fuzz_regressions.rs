@@ -1,0 +1,89 @@
+//! Replays every input kept in `fuzz/regressions/` through the same calls as the fuzz
+//! targets: each must give a dataset or a typed error, never a panic.
+
+use std::path::{Path, PathBuf};
+
+use datasets::csvdir::DatasetMeta;
+use datasets::matv5::write_doubles;
+
+fn inputs(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fuzz/regressions")
+        .join(target);
+    let mut out: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.unwrap().path())
+        .map(|p| {
+            let bytes = std::fs::read(&p).unwrap();
+            (p, bytes)
+        })
+        .collect();
+    out.sort();
+    assert!(!out.is_empty(), "no regression inputs for {target}");
+    out
+}
+
+#[test]
+fn marina_mat_inputs() {
+    let angles = write_doubles(&[(
+        "angles_baza",
+        4,
+        3,
+        &[0.0, 1.0, 2.0, 3.0, 0.0, 1.0, 2.0, 3.0, 0.0, 1.0, 2.0, 3.0],
+    )])
+    .unwrap();
+    let gps = write_doubles(&[("slam_pose", 3, 3, &[0.0; 9])]).unwrap();
+    let mut ok = 0;
+    for (path, data) in inputs("marina_mat") {
+        let r = datasets::marina::parse(
+            [
+                (Path::new("angles.mat"), &angles[..]),
+                (Path::new("ranges.mat"), &data[..]),
+                (Path::new("gps.mat"), &gps[..]),
+            ],
+            &datasets::marina::MarinaOptions::default(),
+        );
+        ok += r.is_ok() as usize;
+        if let Err(e) = r {
+            assert!(
+                e.to_string().contains("ranges.mat"),
+                "{}: {e}",
+                path.display()
+            );
+        }
+    }
+    assert_eq!(ok, 1, "only the seed `good` is a valid set");
+}
+
+#[test]
+fn carmen_inputs() {
+    for (path, data) in inputs("carmen") {
+        let r = datasets::carmen::parse(Path::new("fuzz.log"), &data[..], &Default::default());
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert_eq!(
+            r.is_ok(),
+            name == "good",
+            "{name}: {:?}",
+            r.err().map(|e| e.to_string())
+        );
+    }
+}
+
+#[test]
+fn csv_inputs() {
+    const SCANS: &[u8] = b"scan,timestamp_s,range_m,bearing_rad\n0,0,5,0\n0,0,6,1\n0,0,7,2\n1,1,5,0\n1,1,6,1\n1,1,7,2\n";
+    let meta = DatasetMeta::default();
+    for (path, data) in inputs("csv_scans") {
+        let as_scans =
+            datasets::csvdir::parse((Path::new("scans.csv"), &data[..]), None, &meta, "fuzz");
+        let as_poses = datasets::csvdir::parse(
+            (Path::new("scans.csv"), SCANS),
+            Some((Path::new("poses.csv"), &data[..])),
+            &meta,
+            "fuzz",
+        );
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert_eq!(as_scans.is_ok(), name == "good", "{name} as scans");
+        assert_eq!(as_poses.is_ok(), name == "poses", "{name} as poses");
+    }
+}
