@@ -76,54 +76,76 @@ fn stat(s: Option<Stats>, f: fn(&Stats) -> f64, digits: usize) -> String {
     cell(s.as_ref().map(f), digits)
 }
 
-fn table1_rows(
+type Pick = fn(&crate::report::VariantSummary) -> &ErrorStats;
+type Column = (
+    &'static str,
+    fn(&ErrorStats) -> Option<Stats>,
+    fn(&Stats) -> f64,
+    usize,
+);
+
+/// One Markdown table: a row per variant, a column per (header, error, statistic, digits).
+fn stats_table(
     out: &mut String,
     report: &RunReport,
-    pick: fn(&crate::report::VariantSummary) -> &ErrorStats,
+    pick: Pick,
+    with_pairs: bool,
+    columns: &[Column],
 ) {
-    let _ = writeln!(out, "| method | pairs | SOG mean (m/s) | ΔCOG mean (°) | SOG std (m/s) | ΔCOG std (°) | SOG max (m/s) | ΔCOG max (°) |");
-    let _ = writeln!(
-        out,
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
-    );
+    let headers: Vec<&str> = columns.iter().map(|c| c.0).collect();
+    let pairs_header = if with_pairs { " pairs |" } else { "" };
+    let _ = writeln!(out, "| method |{pairs_header} {} |", headers.join(" | "));
+    let align = if with_pairs { " ---: |" } else { "" };
+    let _ = writeln!(out, "| --- |{align}{}", " ---: |".repeat(columns.len()));
     for v in &report.variants {
         let e = pick(v);
-        let _ = writeln!(
-            out,
-            "| {} | {} | {} | {} | {} | {} | {} | {} |",
-            v.name,
-            e.pairs,
-            stat(e.sog_err_mps, |s| s.mean, 3),
-            stat(e.dcog_err_deg, |s| s.mean, 2),
-            stat(e.sog_err_mps, |s| s.std, 3),
-            stat(e.dcog_err_deg, |s| s.std, 2),
-            stat(e.sog_err_mps, |s| s.max_signed, 3),
-            stat(e.dcog_err_deg, |s| s.max_signed, 2),
-        );
+        let cells: Vec<String> = columns
+            .iter()
+            .map(|&(_, error, statistic, digits)| stat(error(e), statistic, digits))
+            .collect();
+        let pairs = if with_pairs {
+            format!(" {} |", e.pairs)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(out, "| {} |{pairs} {} |", v.name, cells.join(" | "));
     }
 }
 
-fn robust_rows(
-    out: &mut String,
-    report: &RunReport,
-    pick: fn(&crate::report::VariantSummary) -> &ErrorStats,
-) {
-    let _ = writeln!(out, "| method | SOG median \\|e\\| (m/s) | SOG RMSE (m/s) | SOG p95 \\|e\\| (m/s) | ΔCOG median \\|e\\| (°) | ΔCOG RMSE (°) | ΔCOG p95 \\|e\\| (°) |");
-    let _ = writeln!(out, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
-    for v in &report.variants {
-        let e = pick(v);
-        let _ = writeln!(
-            out,
-            "| {} | {} | {} | {} | {} | {} | {} |",
-            v.name,
-            stat(e.sog_err_mps, |s| s.median_abs, 3),
-            stat(e.sog_err_mps, |s| s.rmse, 3),
-            stat(e.sog_err_mps, |s| s.p95_abs, 3),
-            stat(e.dcog_err_deg, |s| s.median_abs, 2),
-            stat(e.dcog_err_deg, |s| s.rmse, 2),
-            stat(e.dcog_err_deg, |s| s.p95_abs, 2),
-        );
-    }
+fn sog(e: &ErrorStats) -> Option<Stats> {
+    e.sog_err_mps
+}
+
+fn dcog(e: &ErrorStats) -> Option<Stats> {
+    e.dcog_err_deg
+}
+
+/// Table 1 of the paper: mean, std and signed max of SOG and ΔCOG errors.
+const TABLE1: [Column; 6] = [
+    ("SOG mean (m/s)", sog, |s| s.mean, 3),
+    ("ΔCOG mean (°)", dcog, |s| s.mean, 2),
+    ("SOG std (m/s)", sog, |s| s.std, 3),
+    ("ΔCOG std (°)", dcog, |s| s.std, 2),
+    ("SOG max (m/s)", sog, |s| s.max_signed, 3),
+    ("ΔCOG max (°)", dcog, |s| s.max_signed, 2),
+];
+
+/// The robust companion: median |e|, RMSE and p95 |e|.
+const ROBUST: [Column; 6] = [
+    ("SOG median \\|e\\| (m/s)", sog, |s| s.median_abs, 3),
+    ("SOG RMSE (m/s)", sog, |s| s.rmse, 3),
+    ("SOG p95 \\|e\\| (m/s)", sog, |s| s.p95_abs, 3),
+    ("ΔCOG median \\|e\\| (°)", dcog, |s| s.median_abs, 2),
+    ("ΔCOG RMSE (°)", dcog, |s| s.rmse, 2),
+    ("ΔCOG p95 \\|e\\| (°)", dcog, |s| s.p95_abs, 2),
+];
+
+fn table1_rows(out: &mut String, report: &RunReport, pick: Pick) {
+    stats_table(out, report, pick, true, &TABLE1);
+}
+
+fn robust_rows(out: &mut String, report: &RunReport, pick: Pick) {
+    stats_table(out, report, pick, false, &ROBUST);
 }
 
 /// `table.md`: Table 1 laid out like the paper, the robust table, and for the marina data the

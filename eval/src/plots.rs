@@ -272,6 +272,35 @@ fn square_bounds(
     (cx - half..cx + half, cy - half..cy + half)
 }
 
+type XyChart<'a, DB> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+/// A square x–y chart in metres with its mesh drawn.
+fn xy_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    xr: std::ops::Range<f64>,
+    yr: std::ops::Range<f64>,
+) -> Result<XyChart<'a, DB>, String> {
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FONT, 20))
+        .margin(10)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(xr, yr)
+        .map_err(err)?;
+    chart
+        .configure_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .draw()
+        .map_err(err)?;
+    Ok(chart)
+}
+
 struct Trajectories<'a> {
     report: &'a RunReport,
     reference: Option<Vec<(f64, f64)>>,
@@ -301,19 +330,7 @@ impl Figure for Trajectories<'_> {
                 self.report.dataset.name
             ),
         };
-        let mut chart = ChartBuilder::on(root)
-            .caption(caption, (FONT, 20))
-            .margin(10)
-            .x_label_area_size(40)
-            .y_label_area_size(60)
-            .build_cartesian_2d(xr, yr)
-            .map_err(err)?;
-        chart
-            .configure_mesh()
-            .x_desc("x (m)")
-            .y_desc("y (m)")
-            .draw()
-            .map_err(err)?;
+        let mut chart = xy_chart(root, &caption, xr, yr)?;
         if let Some(r) = &self.reference {
             chart
                 .draw_series(LineSeries::new(r.iter().copied(), BLACK.stroke_width(3)))
@@ -388,19 +405,7 @@ impl Figure for Maps<'_> {
         ) in areas.iter().zip(&self.panels)
         {
             let (xr, yr) = square_bounds(points.iter().chain(track).copied());
-            let mut chart = ChartBuilder::on(area)
-                .caption(name, (FONT, 20))
-                .margin(10)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(xr, yr)
-                .map_err(err)?;
-            chart
-                .configure_mesh()
-                .x_desc("x (m)")
-                .y_desc("y (m)")
-                .draw()
-                .map_err(err)?;
+            let mut chart = xy_chart(area, name, xr, yr)?;
             chart
                 .draw_series(points.iter().map(|&p| Pixel::new(p, BLACK)))
                 .map_err(err)?;
