@@ -360,18 +360,22 @@ fn list_names_the_variants_and_bad_configs_exit_2() {
     );
     let dir = common::scratch_dir("bad_config");
     let cfg = dir.join("bad.json");
+    let run_config = |cfg: &Path| {
+        let out = dir.join("out");
+        icp_eval(&[
+            "run",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "5",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+    };
     std::fs::write(&cfg, r#"{"name": "X", "weighting": {"kind": "uniform"}, "robust": {"kind": "median_scaled", "kernel": "huber", "c": -2}}"#).unwrap();
-    let o = icp_eval(&[
-        "run",
-        "--dataset",
-        "synthetic",
-        "--scans",
-        "5",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_config(&cfg);
     assert_eq!(o.status.code(), Some(2));
     assert!(
         String::from_utf8_lossy(&o.stderr).contains("robust.c"),
@@ -379,17 +383,7 @@ fn list_names_the_variants_and_bad_configs_exit_2() {
         String::from_utf8_lossy(&o.stderr)
     );
     std::fs::write(&cfg, r#"{"name": "X", "weighting": {"kind": "uniform"}}"#).unwrap();
-    let o = icp_eval(&[
-        "run",
-        "--dataset",
-        "synthetic",
-        "--scans",
-        "5",
-        "--config",
-        cfg.to_str().unwrap(),
-        "--out",
-        dir.to_str().unwrap(),
-    ]);
+    let o = run_config(&cfg);
     assert_eq!(
         o.status.code(),
         Some(2),
