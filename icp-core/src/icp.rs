@@ -4,7 +4,7 @@
 use nalgebra::{Isometry2, Matrix3, Point2, SymmetricEigen, Vector2, Vector3};
 
 use crate::error::ScanRole;
-use crate::matching::{Correspondence, Matcher, NearestIndex};
+use crate::matching::{Correspondence, Matcher, Matches, NearestIndex};
 use crate::minimize::Minimizer;
 use crate::robust::RobustKernel;
 use crate::scan::{check_geometry, Return, Scan};
@@ -267,7 +267,7 @@ where
 
         // Buffers reused by every iteration: nothing is allocated inside the loop.
         let mut moved = src_pts.clone();
-        let mut pairs = Vec::with_capacity(src.len());
+        let mut matches = Matches::with_capacity(src.len());
         let mut weights = Vec::with_capacity(src.len());
         let mut scratch = Vec::with_capacity(src.len());
 
@@ -279,8 +279,9 @@ where
             for (m, p) in moved.iter_mut().zip(&src_pts) {
                 *m = t_ref_src * p; // eqs. 21, 22: the accumulated transform applied to scan k
             }
-            index.match_all(&moved, &mut pairs); // Alg. 1 step 2
-            let mean = mean_distance(&pairs); // Alg. 1 step 6: the mean pair distance
+            index.match_all(&moved, &mut matches); // Alg. 1 step 2
+            let pairs = &matches.pairs;
+            let mean = mean_distance(pairs); // Alg. 1 step 6: the mean pair distance
             if let Some(prev) = previous_mean {
                 if self.termination.converged(prev, mean) {
                     break (StopReason::Converged, mean);
@@ -299,9 +300,9 @@ where
                     rotation_ref_src: t_ref_src.rotation,
                 })
             }));
-            self.robust.reweight(&pairs, &mut weights, &mut scratch); // Alg. 1 step 4, Huber
-                                                                      // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
-            let increment = self.minimizer.solve(&moved, &dst_pts, &pairs, &weights)?;
+            self.robust.reweight(pairs, &mut weights, &mut scratch); // Alg. 1 step 4, Huber
+                                                                     // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
+            let increment = self.minimizer.solve(&moved, &dst_pts, pairs, &weights)?;
             last_weight_sum = weights.iter().sum();
             t_ref_src = increment * t_ref_src;
             iterations += 1;
@@ -311,10 +312,10 @@ where
             t_ref_src,
             iterations,
             stop,
-            n_pairs: pairs.len(),
+            n_pairs: matches.pairs.len(),
             weight_sum: last_weight_sum,
             mean_dist_m,
-            conditioning: conditioning(&moved, &dst_pts, &pairs),
+            conditioning: conditioning(&moved, &dst_pts, &matches.pairs),
         })
     }
 }

@@ -1,14 +1,21 @@
-//! Exact nearest neighbour on a uniform grid, warm-started by the previous match.
+//! Exact nearest neighbour on a uniform grid, with certificates that spare most searches of
+//! an ICP iteration.
 //!
 //! The reference points are bucketed into square cells (struct of arrays, in cell order). A
-//! cold query searches rings of cells outwards until no unvisited cell can hold a closer point.
-//! A warm query starts from a hint (the previous iteration's match): any closer point lies
-//! within the hint's distance, so only the cells overlapping that disc's bounding box are
-//! searched — usually one or two once ICP has settled.
+//! search finds a query's nearest point and its clearance: a lower bound on the distance of
+//! every other point, which certifies it. A cold search visits rings of cells outwards until no
+//! unvisited cell can hold a point nearer than the second found; a hinted one (from the
+//! neighbouring query's or the previous iteration's match) only the cells within the hint's
+//! distance, its clearance bounded by the nearest unvisited cell. Between
+//! ICP iterations a query moves little: while its nearest point plus its drift stays inside the
+//! clearance found at its last search, the nearest point cannot have changed, and the query
+//! costs one distance. Once ICP settles almost every query is answered so.
+
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use nalgebra::Point2;
 
-use super::{check_reference, Correspondence, Matcher, NearestIndex};
+use super::{check_reference, Certificate, Correspondence, Matcher, Matches, NearestIndex};
 use crate::IcpError;
 
 /// Grid nearest neighbour: the same pairs as brute force, with O(1) expected warm queries.
@@ -34,6 +41,61 @@ pub struct GridIndex {
     h: f64,
     nx: usize,
     ny: usize,
+    /// Distinguishes this index's certificates in a reused [`Matches`] from another's.
+    stamp: u64,
+}
+
+/// Stamps of built indices; 0 is never given.
+static NEXT_STAMP: AtomicU64 = AtomicU64::new(1);
+
+/// Relative safety margin of the certificate test, far above the rounding of the distances
+/// (a few ulps): a certified point is nearer than any other by more than rounding can blur.
+const CERTIFICATE_MARGIN: f64 = 1e-9;
+
+/// The nearest point found so far (lowest index among equals) and a lower bound on the squared
+/// distance of every other point (the second-nearest found, or less).
+#[derive(Clone, Copy, Debug)]
+struct TwoNearest {
+    best: usize,
+    d1: f64,
+    d2: f64,
+}
+
+impl TwoNearest {
+    const NONE: Self = Self {
+        best: usize::MAX,
+        d1: f64::INFINITY,
+        d2: f64::INFINITY,
+    };
+
+    #[inline]
+    fn offer(&mut self, id: usize, d: f64) {
+        if d < self.d1 || (d == self.d1 && id < self.best) {
+            self.d2 = self.d1;
+            (self.best, self.d1) = (id, d);
+        } else if d < self.d2 {
+            self.d2 = d;
+        }
+    }
+
+    /// The certificate at `anchor` (a non-finite query finds nothing: index 0 at infinite
+    /// distance, as from the brute-force search, and no clearance).
+    fn certificate(self, anchor: Point2<f64>) -> Certificate {
+        if self.best == usize::MAX {
+            return Certificate {
+                anchor,
+                clearance: 0.0,
+                best: 0,
+                dist_sq: f64::INFINITY,
+            };
+        }
+        Certificate {
+            anchor,
+            clearance: self.d2.sqrt(),
+            best: self.best,
+            dist_sq: self.d1,
+        }
+    }
 }
 
 impl Matcher for Grid {
@@ -108,6 +170,7 @@ impl Matcher for Grid {
             h,
             nx,
             ny,
+            stamp: NEXT_STAMP.fetch_add(1, Ordering::Relaxed),
         })
     }
 }
@@ -124,15 +187,22 @@ impl GridIndex {
         )
     }
 
-    /// Scans the points of the cells `[cx0, cx1] × [cy0, cy1]`, improving `best`. Among points
-    /// at the same distance the lowest index wins, as with brute force.
+    /// Squared distance from `q` to reference point `id`, computed as every matcher does.
+    #[inline]
+    fn dist_sq(&self, q: &Point2<f64>, id: usize) -> f64 {
+        let k = self.slots[id] as usize;
+        let (dx, dy) = (self.xs[k] - q.x, self.ys[k] - q.y);
+        dx * dx + dy * dy
+    }
+
+    /// Offers the points of the cells `[cx0, cx1] × [cy0, cy1]` to `found`.
     #[inline]
     fn scan_cells(
         &self,
         q: &Point2<f64>,
         (cx0, cx1): (usize, usize),
         (cy0, cy1): (usize, usize),
-        best: &mut (usize, f64),
+        found: &mut TwoNearest,
     ) {
         for cy in cy0..=cy1 {
             let row = cy * self.nx;
@@ -146,111 +216,137 @@ impl GridIndex {
                 .zip(&self.ids[start..end]);
             for ((x, y), &id) in cells {
                 let (dx, dy) = (x - q.x, y - q.y);
-                let d = dx * dx + dy * dy;
-                if d < best.1 || (d == best.1 && (id as usize) < best.0) {
-                    *best = (id as usize, d);
-                }
+                found.offer(id as usize, dx * dx + dy * dy);
             }
         }
     }
 
-    /// The nearest point to `q` that is closer than `best` (or `best` itself).
-    fn search_box(&self, q: &Point2<f64>, mut best: (usize, f64)) -> (usize, f64) {
-        let r = best.1.sqrt();
-        let lo = self.cell_xy(&Point2::new(q.x - r, q.y - r));
-        let hi = self.cell_xy(&Point2::new(q.x + r, q.y + r));
-        self.scan_cells(q, (lo.0, hi.0), (lo.1, hi.1), &mut best);
-        best
+    /// A lower bound on the distance from `q` to any point outside the cells
+    /// `[x_lo, x_hi] × [y_lo, y_hi]`: the distance to the nearest side of that block which the
+    /// grid extends past (infinite when the block covers the grid).
+    fn outside_bound(
+        &self,
+        q: &Point2<f64>,
+        (x_lo, x_hi): (usize, usize),
+        (y_lo, y_hi): (usize, usize),
+    ) -> f64 {
+        let mut bound = f64::INFINITY;
+        if x_lo > 0 {
+            bound = bound.min(q.x - (self.x0 + x_lo as f64 * self.h));
+        }
+        if x_hi + 1 < self.nx {
+            bound = bound.min(self.x0 + (x_hi + 1) as f64 * self.h - q.x);
+        }
+        if y_lo > 0 {
+            bound = bound.min(q.y - (self.y0 + y_lo as f64 * self.h));
+        }
+        if y_hi + 1 < self.ny {
+            bound = bound.min(self.y0 + (y_hi + 1) as f64 * self.h - q.y);
+        }
+        bound
     }
 
-    /// Cold query: rings of cells around `q`'s (clamped) cell until no unvisited cell can hold a
-    /// closer point.
-    fn search_rings(&self, q: &Point2<f64>) -> (usize, f64) {
+    /// The nearest point to `q`, searched from reference point `hint`: any nearer point lies
+    /// within the hint's distance, so only the cells overlapping that disc's bounding box are
+    /// visited. The clearance is the nearer of the second point found there and the block's
+    /// unvisited outside.
+    fn search_from(&self, q: &Point2<f64>, hint: usize) -> Certificate {
+        let reach_sq = self.dist_sq(q, hint);
+        if !reach_sq.is_finite() {
+            return self.search_rings(q);
+        }
+        let r = reach_sq.sqrt();
+        let lo = self.cell_xy(&Point2::new(q.x - r, q.y - r));
+        let hi = self.cell_xy(&Point2::new(q.x + r, q.y + r));
+        let mut found = TwoNearest::NONE;
+        self.scan_cells(q, (lo.0, hi.0), (lo.1, hi.1), &mut found);
+        let outside = self.outside_bound(q, (lo.0, hi.0), (lo.1, hi.1));
+        found.d2 = found.d2.min(outside * outside);
+        found.certificate(*q)
+    }
+
+    /// The two nearest points to `q` without a hint: rings of cells around `q`'s (clamped) cell
+    /// until no unvisited cell can hold a point nearer than the second found.
+    fn search_rings(&self, q: &Point2<f64>) -> Certificate {
         let (cx, cy) = self.cell_xy(q);
-        let mut best = (usize::MAX, f64::INFINITY);
+        let mut found = TwoNearest::NONE;
         for k in 0.. {
             let (x_lo, x_hi) = (cx.saturating_sub(k), (cx + k).min(self.nx - 1));
             let (y_lo, y_hi) = (cy.saturating_sub(k), (cy + k).min(self.ny - 1));
             if k == 0 {
-                self.scan_cells(q, (cx, cx), (cy, cy), &mut best);
+                self.scan_cells(q, (cx, cx), (cy, cy), &mut found);
             } else {
                 // The ring: top and bottom rows, then the left and right columns between them.
                 if cy >= k {
-                    self.scan_cells(q, (x_lo, x_hi), (cy - k, cy - k), &mut best);
+                    self.scan_cells(q, (x_lo, x_hi), (cy - k, cy - k), &mut found);
                 }
                 if cy + k < self.ny {
-                    self.scan_cells(q, (x_lo, x_hi), (cy + k, cy + k), &mut best);
+                    self.scan_cells(q, (x_lo, x_hi), (cy + k, cy + k), &mut found);
                 }
                 let (r_lo, r_hi) = (cy.saturating_sub(k - 1), (cy + k - 1).min(self.ny - 1));
                 if cx >= k {
-                    self.scan_cells(q, (cx - k, cx - k), (r_lo, r_hi), &mut best);
+                    self.scan_cells(q, (cx - k, cx - k), (r_lo, r_hi), &mut found);
                 }
                 if cx + k < self.nx {
-                    self.scan_cells(q, (cx + k, cx + k), (r_lo, r_hi), &mut best);
+                    self.scan_cells(q, (cx + k, cx + k), (r_lo, r_hi), &mut found);
                 }
             }
             // Every unvisited point lies beyond a side of the visited square that the grid
-            // extends past; its distance is at least the distance from q to that side.
-            let mut bound = f64::INFINITY;
-            if x_lo > 0 {
-                bound = bound.min(q.x - (self.x0 + x_lo as f64 * self.h));
-            }
-            if x_hi + 1 < self.nx {
-                bound = bound.min(self.x0 + (x_hi + 1) as f64 * self.h - q.x);
-            }
-            if y_lo > 0 {
-                bound = bound.min(q.y - (self.y0 + y_lo as f64 * self.h));
-            }
-            if y_hi + 1 < self.ny {
-                bound = bound.min(self.y0 + (y_hi + 1) as f64 * self.h - q.y);
-            }
-            if bound == f64::INFINITY || (best.0 != usize::MAX && best.1 <= bound * bound) {
+            // extends past.
+            let bound = self.outside_bound(q, (x_lo, x_hi), (y_lo, y_hi));
+            if bound == f64::INFINITY || found.d2 <= bound * bound {
                 break;
             }
         }
-        // Only a non-finite query finds nothing; it gets index 0 at infinite distance, as
-        // from the brute-force search.
-        if best.0 == usize::MAX {
-            best.0 = 0;
-        }
-        best
+        found.certificate(*q)
     }
 }
 
 impl NearestIndex for GridIndex {
     fn nearest(&self, query: &Point2<f64>) -> (usize, f64) {
-        self.search_rings(query)
+        let c = self.search_rings(query);
+        (c.best, c.dist_sq)
     }
 
-    /// Warm-started when `out` holds one correspondence per query from the previous call. A
-    /// cold call warm-starts each query from the previous query's answer: consecutive returns
-    /// of a scan are neighbours, and so are their nearest reference points.
-    fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Vec<Correspondence>) {
-        let from_hint = |q: &Point2<f64>, hint: usize| {
-            let k = self.slots[hint] as usize;
-            let (dx, dy) = (self.xs[k] - q.x, self.ys[k] - q.y);
-            self.search_box(q, (hint, dx * dx + dy * dy))
-        };
-        if out.len() == moved_src.len() {
-            for (c, q) in out.iter_mut().zip(moved_src) {
-                let (dst, dist_sq) = from_hint(q, c.dst);
-                *c = Correspondence {
-                    src: c.src,
-                    dst,
-                    dist_sq,
-                };
+    /// A query keeps its nearest point while its certificate holds (one distance); otherwise,
+    /// and for a first call, it is searched from a hint: its previous nearest point, or at a
+    /// first call the previous query's (consecutive returns of a scan are neighbours, and so
+    /// are their nearest reference points).
+    fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Matches) {
+        let certificates = &mut out.certificates;
+        if out.owner == self.stamp && certificates.len() == moved_src.len() {
+            for (c, q) in certificates.iter_mut().zip(moved_src) {
+                let dist_sq = self.dist_sq(q, c.best);
+                let drift = (q - c.anchor).norm();
+                if dist_sq.sqrt() + drift < c.clearance * (1.0 - CERTIFICATE_MARGIN) {
+                    c.dist_sq = dist_sq;
+                } else {
+                    *c = self.search_from(q, c.best);
+                }
             }
         } else {
-            out.clear();
+            out.owner = self.stamp;
+            certificates.clear();
             let mut previous: Option<usize> = None;
-            for (src, q) in moved_src.iter().enumerate() {
-                let (dst, dist_sq) = match previous {
-                    Some(hint) => from_hint(q, hint),
+            for q in moved_src {
+                let c = match previous {
+                    Some(hint) => self.search_from(q, hint),
                     None => self.search_rings(q),
                 };
-                previous = dist_sq.is_finite().then_some(dst);
-                out.push(Correspondence { src, dst, dist_sq });
+                previous = c.dist_sq.is_finite().then_some(c.best);
+                certificates.push(c);
             }
         }
+        out.pairs.clear();
+        out.pairs.extend(
+            certificates
+                .iter()
+                .enumerate()
+                .map(|(src, c)| Correspondence {
+                    src,
+                    dst: c.best,
+                    dist_sq: c.dist_sq,
+                }),
+        );
     }
 }

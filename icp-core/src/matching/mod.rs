@@ -30,21 +30,67 @@ pub struct Correspondence {
     pub dist_sq: f64,
 }
 
+/// The pairs of the last [`NearestIndex::match_all`] call, and what an index remembers about
+/// each query to answer the next call (the next ICP iteration) with less work. One value is
+/// reused across iterations and registrations: its buffers keep their capacity, and memory left
+/// by another index is recognised and ignored.
+#[derive(Clone, Debug, Default)]
+pub struct Matches {
+    /// One correspondence per query, in query order.
+    pub pairs: Vec<Correspondence>,
+    /// Per query, for the index that wrote them (see `owner`): a proof of its nearest point.
+    certificates: Vec<Certificate>,
+    /// The build stamp of the index that wrote `certificates` (0: none).
+    owner: u64,
+}
+
+/// At `anchor`, reference point `best` was the unique nearest and every other reference point
+/// was at least `clearance` away. Then for a query `q` at `drift = |q − anchor|`, every other
+/// point is at least `clearance − drift` from `q` (triangle inequality), so `best` is still the
+/// unique nearest while `|q − best| + drift < clearance`.
+#[derive(Clone, Copy, Debug)]
+struct Certificate {
+    anchor: Point2<f64>,
+    clearance: f64,
+    best: usize,
+    dist_sq: f64,
+}
+
+impl Matches {
+    /// Empty, with room for `n` queries.
+    pub fn with_capacity(n: usize) -> Self {
+        Self {
+            pairs: Vec::with_capacity(n),
+            certificates: Vec::with_capacity(n),
+            owner: 0,
+        }
+    }
+
+    /// Forgets the pairs and what the index remembered (keeping the capacity): the next call
+    /// searches every query afresh.
+    pub fn clear(&mut self) {
+        self.pairs.clear();
+        self.certificates.clear();
+        self.owner = 0;
+    }
+}
+
 /// A nearest-neighbour index over the reference points.
 pub trait NearestIndex: Send + Sync {
     /// Index and squared distance of the reference point nearest to `query`. Among points at
     /// exactly the same distance any may be returned.
     fn nearest(&self, query: &Point2<f64>) -> (usize, f64);
 
-    /// Fills `out` with one correspondence per moved source point. When `out` already holds one
-    /// per point (the previous iteration's), an index may use them as hints; the result is the
-    /// same either way.
-    fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Vec<Correspondence>) {
-        out.clear();
-        out.extend(moved_src.iter().enumerate().map(|(src, q)| {
-            let (dst, dist_sq) = self.nearest(q);
-            Correspondence { src, dst, dist_sq }
-        }));
+    /// Fills `out.pairs` with one correspondence per moved source point. An index may use what
+    /// it left in `out` at its previous call to do less work; the pairs are the same either way.
+    fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Matches) {
+        out.owner = 0;
+        out.pairs.clear();
+        out.pairs
+            .extend(moved_src.iter().enumerate().map(|(src, q)| {
+                let (dst, dist_sq) = self.nearest(q);
+                Correspondence { src, dst, dist_sq }
+            }));
     }
 }
 
@@ -215,13 +261,14 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
-        /// Warm-started matching (hints from a previous, shifted query set) gives exactly the
-        /// pairs of a cold brute-force search, ties resolved to the lowest index.
+        /// Matching a query set that moves a little at each call, as in ICP iterations (with
+        /// jumps, so both certified and searched queries occur), gives at every call exactly
+        /// the pairs of a cold brute-force search, ties resolved to the lowest index.
         #[test]
-        fn warm_grid_matching_equals_brute_force(
+        fn repeated_grid_matching_equals_brute_force(
             reference in prop::collection::vec((-40.0..40.0f64, -40.0..40.0f64), 1..300),
             queries in prop::collection::vec((-60.0..60.0f64, -60.0..60.0f64), 1..200),
-            (dx, dy) in (-3.0..3.0f64, -3.0..3.0f64),
+            steps in prop::collection::vec((-0.5..0.5f64, -0.5..0.5f64, -0.05..0.05f64), 1..12),
             dup in 0usize..5,
         ) {
             let mut reference = points(&reference);
@@ -230,17 +277,41 @@ mod tests {
                 let p = reference[i];
                 reference.push(p);
             }
-            let queries = points(&queries);
+            let mut queries = points(&queries);
             let brute = BruteForce.build(&reference).unwrap();
             let grid = Grid.build(&reference).unwrap();
-            let mut want = Vec::new();
-            brute.match_all(&queries, &mut want);
-            let mut got = Vec::new();
-            let shifted: Vec<_> = queries.iter().map(|q| q + nalgebra::Vector2::new(dx, dy)).collect();
-            grid.match_all(&shifted, &mut got); // cold, at other positions
-            grid.match_all(&queries, &mut got); // warm, hinted by those
-            prop_assert_eq!(got, want);
+            let (mut want, mut got) = (Matches::default(), Matches::default());
+            for (k, &(dx, dy, angle)) in steps.iter().enumerate() {
+                // Steps shrinking like an ICP's, about the origin.
+                let scale = 0.5f64.powi(k as i32);
+                let t = nalgebra::Isometry2::new(nalgebra::Vector2::new(dx, dy) * scale, angle * scale);
+                for q in queries.iter_mut() {
+                    *q = t * *q;
+                }
+                brute.match_all(&queries, &mut want);
+                grid.match_all(&queries, &mut got);
+                prop_assert_eq!(&got.pairs, &want.pairs);
+            }
         }
+    }
+
+    #[test]
+    fn matches_left_by_another_index_are_not_trusted() {
+        // The same query count on two different references: the second index must not take
+        // the first one's certificates for its own.
+        let a = points(&[(0.0, 0.0), (10.0, 0.0), (20.0, 0.0)]);
+        // At (1, 0) the first index certifies its point 0 with clearance 9; point 0 of the
+        // second is 1.1 from it, inside that clearance, but its point 1 is nearer.
+        let b = points(&[(0.0, 0.5), (1.0, 0.1), (20.0, 0.0)]);
+        let queries = points(&[(1.0, 0.0), (9.0, 0.0), (19.0, 0.0)]);
+        let mut m = Matches::default();
+        Grid.build(&a).unwrap().match_all(&queries, &mut m);
+        let mut want = Matches::default();
+        let bb = BruteForce.build(&b).unwrap();
+        bb.match_all(&queries, &mut want);
+        Grid.build(&b).unwrap().match_all(&queries, &mut m);
+        assert_eq!(m.pairs, want.pairs);
+        assert_eq!(m.pairs[0].dst, 1);
     }
 
     #[test]
