@@ -274,6 +274,7 @@ fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix
             "the header does not start with \"MATLAB 5.0 MAT-file\"".into(),
         ));
     }
+    check_elements(&bytes).map_err(parse_error)?;
     let file = matfile::MatFile::parse(&bytes[..]).map_err(|e| parse_error(e.to_string()))?;
     let array = file
         .find_by_name(name)
@@ -305,6 +306,36 @@ fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix
         cols: size[1],
         data,
     })
+}
+
+/// Walks the top-level data elements after the 128-byte header: each must fit in the file, so
+/// a truncated download is named as such instead of losing its last variable silently (the
+/// MATLAB reader skips an element it cannot complete).
+fn check_elements(bytes: &[u8]) -> Result<(), String> {
+    let word = |at: usize| -> u32 {
+        let w = [bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]];
+        if &bytes[126..128] == b"MI" {
+            u32::from_be_bytes(w)
+        } else {
+            u32::from_le_bytes(w)
+        }
+    };
+    let mut at = 128;
+    while bytes.len() - at >= 8 {
+        let size = if word(at) >> 16 != 0 {
+            0 // a small element: its data sits in its 8-byte tag
+        } else {
+            word(at + 4) as usize
+        };
+        let remain = bytes.len() - at - 8;
+        if size > remain {
+            return Err(format!(
+                "truncated: the data element at byte {at} declares {size} bytes, {remain} remain"
+            ));
+        }
+        at += 8 + size;
+    }
+    Ok(())
 }
 
 fn hex(bytes: &[u8]) -> String {

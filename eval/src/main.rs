@@ -206,10 +206,21 @@ fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::from(2)
         }
     }
+}
+
+/// The error and its causes, each said once: our errors already print their cause.
+fn message(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1).map(|c| c.to_string()) {
+        if !msg.contains(&cause) {
+            msg = format!("{msg}: {cause}");
+        }
+    }
+    msg
 }
 
 fn run(cli: Cli) -> Result<ExitCode> {
@@ -261,8 +272,7 @@ fn evaluate_and_write(
     common: &Common,
 ) -> Result<RunReport> {
     let report = evaluate_in_pool(ds, setup, common)?;
-    write_outputs(out, ds, &report, !common.no_plots)
-        .with_context(|| format!("writing the reports to {}", out.display()))?;
+    write_outputs(out, ds, &report, !common.no_plots).context("writing the reports")?;
     Ok(report)
 }
 

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::published;
-use crate::report::{ErrorStats, RunReport};
+use crate::report::{ErrorStats, RunReport, VariantSummary};
 use crate::stats::Stats;
 use crate::EvalError;
 
@@ -253,22 +253,25 @@ pub fn table_md(report: &RunReport) -> String {
         "\nFailed registrations: {failed}. Skipped pairs: {}.",
         d.skipped_pairs.len()
     );
-    let degenerate: usize = report
-        .variants
-        .iter()
-        .map(|v| v.degenerate_pairs.len())
-        .sum();
+    let count = |f: fn(&VariantSummary) -> usize| report.variants.iter().map(f).sum::<usize>();
     let _ = writeln!(
         out,
-        "Degenerate registrations (flagged by their conditioning, left out of the statistics): {degenerate}."
+        "Degenerate registrations (flagged by their conditioning, left out of the statistics): {}.",
+        count(|v| v.degenerate_pairs.len())
+    );
+    let _ = writeln!(
+        out,
+        "Registrations without overlap (flagged by their final pair distances, left out of the statistics): {}.",
+        count(|v| v.no_overlap_pairs.len())
     );
     for v in &report.variants {
-        if !v.degenerate_pairs.is_empty() {
-            let _ = writeln!(
-                out,
-                "- {} degenerate on pairs {:?}",
-                v.name, v.degenerate_pairs
-            );
+        for (flag, pairs) in [
+            ("degenerate", &v.degenerate_pairs),
+            ("without overlap", &v.no_overlap_pairs),
+        ] {
+            if !pairs.is_empty() {
+                let _ = writeln!(out, "- {} {flag} on pairs {pairs:?}", v.name);
+            }
         }
         for f in &v.failures {
             let _ = writeln!(out, "- {} failed on pair {}: {}", v.name, f.pair, f.reason);

@@ -91,6 +91,9 @@ pub struct PairRecord {
     /// Conditioning of the registration: smallest over largest eigenvalue of its Hessian
     /// (below `icp_core::icp::DEGENERATE_RATIO` the pair is flagged `degenerate`).
     pub cond_ratio: Option<f64>,
+    /// Fraction of the final pairs closer than `icp_core::icp::OVERLAP_GATE_M` (below
+    /// `icp_core::icp::MIN_OVERLAP` the pair is flagged `no overlap`).
+    pub overlap: Option<f64>,
     /// False when the reference step is flagged as implausible (or absent).
     pub ref_plausible: bool,
     /// Wall time of the registration, µs (not reproducible; last column so checks can drop it).
@@ -157,6 +160,9 @@ pub struct VariantSummary {
     /// Pairs registered but flagged degenerate (left out of the statistics).
     #[serde(default)]
     pub degenerate_pairs: Vec<usize>,
+    /// Pairs registered but flagged as having no overlap (left out of the statistics).
+    #[serde(default)]
+    pub no_overlap_pairs: Vec<usize>,
     /// Fraction of the registered pairs that converged.
     pub converged_fraction: f64,
     /// Mean iterations.
@@ -433,6 +439,12 @@ fn record(
         reference: pair.reference,
         dt_s,
         status: match &run.result {
+            Ok(r) if r.no_overlap() => format!(
+                "no overlap: {:.0} % of the pairs within {} m (< {:.0} %)",
+                100.0 * r.overlap,
+                icp_core::icp::OVERLAP_GATE_M,
+                100.0 * icp_core::icp::MIN_OVERLAP
+            ),
             Ok(r) => match r.conditioning {
                 Some(c) if c.degenerate() => format!(
                     "degenerate: conditioning ratio {:.1e} < {}",
@@ -460,6 +472,7 @@ fn record(
         rot_est_dps: est.map(|m| m.rot_dps),
         rot_ref_dps: reference.map(|r| r.dcog_deg / dt_s),
         cond_ratio: reg.and_then(|r| r.conditioning).map(|c| c.ratio),
+        overlap: reg.map(|r| r.overlap),
         trans_err_m: truth_err.map(|e| e.0),
         rot_err_deg: truth_err.map(|e| e.1),
         ref_plausible: plausible,
@@ -518,15 +531,20 @@ fn summarize(
         iterations_max: ok.iter().map(|r| r.iterations).max().unwrap_or(0),
         all_pairs: error_stats(with_ref.clone()),
         plausible_reference: error_stats(with_ref.filter(|r| r.ref_plausible)),
-        degenerate_pairs: rows
-            .iter()
-            .filter(|r| r.status.starts_with("degenerate"))
-            .map(|r| r.pair)
-            .collect(),
+        degenerate_pairs: flagged(rows, "degenerate"),
+        no_overlap_pairs: flagged(rows, "no overlap"),
         trajectory: trajectory_stats(ds, pairs, traj, failures.len()),
         timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         failures,
     }
+}
+
+/// The pairs whose status starts with `flag`.
+fn flagged(rows: &[PairRecord], flag: &str) -> Vec<usize> {
+    rows.iter()
+        .filter(|r| r.status.starts_with(flag))
+        .map(|r| r.pair)
+        .collect()
 }
 
 /// Chains the registrations into scanner poses `t_world_scan`, starting at the reference pose

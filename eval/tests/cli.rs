@@ -183,7 +183,7 @@ fn bad_arguments_exit_2_with_a_message() {
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("writing the reports to") && err.contains("file/out"),
+        err.contains("writing the reports: ") && err.contains("file/out"),
         "{err}"
     );
     let o = icp_eval(&["run", "--dataset", "nowhere", "--out", out]);

@@ -4,10 +4,10 @@
 use nalgebra::{Isometry2, Matrix3, Point2, SymmetricEigen, Vector2, Vector3};
 
 use crate::error::ScanRole;
-use crate::matching::{Correspondence, Matcher, Matches, NearestIndex};
+use crate::matching::{Correspondence, Grid, Matcher, Matches, NearestIndex};
 use crate::minimize::Minimizer;
 use crate::robust::RobustKernel;
-use crate::scan::{check_geometry, Return, Scan};
+use crate::scan::{check_geometry, Return, Scan, MIN_POINTS};
 use crate::select::Selection;
 use crate::termination::{StopReason, Termination};
 use crate::weighting::{PairView, PairWeighting};
@@ -30,7 +30,22 @@ pub struct Registration {
     pub mean_dist_m: f64,
     /// How well the final pairs constrain the motion (`None` with fewer than 3 usable normals).
     pub conditioning: Option<Conditioning>,
+    /// How much the scans overlap at the solution: the smaller of the fractions of source
+    /// points near reference points and of reference points near source points, "near" being
+    /// closer than [`OVERLAP_GATE_M`] (see [`Registration::no_overlap`]).
+    pub overlap: f64,
 }
+
+/// A final pair closer than this counts as overlap, metres: a few times the pair distances of
+/// a converged marina registration (0.11 m on average, from noise and 0.48° beam spacing).
+pub const OVERLAP_GATE_M: f64 = 0.5;
+
+/// Below this overlap fraction a registration is flagged as having no overlap: the scans do
+/// not see the same surfaces, and the motion that aligns their point clouds means nothing.
+/// On the marina data and the synthetic harbour, H/HM/HD_ICP registrations score 0.88 and
+/// more; K_ICP's local minima go down to 0.15 and stay above the threshold on purpose: they
+/// are wrong registrations of overlapping scans and belong in K_ICP's error statistics.
+pub const MIN_OVERLAP: f64 = 0.1;
 
 /// The conditioning of the registration at its solution: the eigenvalues of the Gauss-Newton
 /// Hessian `H = Σ J Jᵀ / N` of eq. 14 (unit weights: the geometry of the final pairs)
@@ -128,6 +143,35 @@ impl Registration {
     pub fn converged(&self) -> bool {
         self.stop == StopReason::Converged
     }
+
+    /// True when too few final pairs are close (overlap below [`MIN_OVERLAP`], or NaN).
+    pub fn no_overlap(&self) -> bool {
+        !(self.overlap >= MIN_OVERLAP)
+    }
+}
+
+/// The smaller of two fractions: of the final pairs closer than [`OVERLAP_GATE_M`] (source
+/// points near the reference) and of the reference points that near the moved source points.
+/// Both are needed: a small scan can settle inside a larger one with most of its own points
+/// near surfaces.
+fn overlap(moved: &[Point2<f64>], dst: &[Point2<f64>], pairs: &[Correspondence]) -> f64 {
+    let close = |pairs: &[Correspondence]| {
+        let n = pairs
+            .iter()
+            .filter(|p| p.dist_sq <= OVERLAP_GATE_M * OVERLAP_GATE_M)
+            .count();
+        if pairs.is_empty() {
+            0.0
+        } else {
+            n as f64 / pairs.len() as f64
+        }
+    };
+    let backward = Grid.build(moved).map_or(0.0, |index| {
+        let mut matches = Matches::default();
+        index.match_all(dst, &mut matches);
+        close(&matches.pairs)
+    });
+    close(pairs).min(backward)
 }
 
 /// A registration method: estimates `t_ref_src` from two scans and an initial guess.
@@ -253,6 +297,15 @@ where
                 });
             }
         }
+        for (scan, role) in [(source, ScanRole::Source), (reference, ScanRole::Reference)] {
+            if scan.len() < MIN_POINTS {
+                return Err(IcpError::TooFewPoints {
+                    role,
+                    got: scan.len(),
+                    need: MIN_POINTS,
+                });
+            }
+        }
         // Alg. 1 step 1: selection; the chosen points are gathered once, before the loop.
         let (mut src_idx, mut ref_idx) = (Vec::new(), Vec::new());
         self.selection
@@ -316,6 +369,7 @@ where
             weight_sum: last_weight_sum,
             mean_dist_m,
             conditioning: conditioning(&moved, &dst_pts, &matches.pairs),
+            overlap: overlap(&moved, &dst_pts, &matches.pairs),
         })
     }
 }

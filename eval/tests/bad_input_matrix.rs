@@ -1,0 +1,436 @@
+//! The bad-input matrix: every kind of broken input a user can point the harness at, one test
+//! each, pinned to the exact error or flag the user sees. Loaders name the file and the
+//! line/variable; the core names the scan and the problem; the harness flags and counts a
+//! pair it cannot trust and carries on. Nothing panics and nothing turns into silent numbers.
+
+mod common;
+
+use std::fmt::Display;
+use std::path::Path;
+
+use datasets::carmen::{self, CarmenOptions};
+use datasets::csvdir::{self, DatasetMeta};
+use datasets::marina::{self, MarinaOptions};
+use datasets::matv5::write_doubles;
+use datasets::synthetic::{generate, Scenario};
+use eval::{evaluate, EvalSetup, OffsetChoice};
+use icp_core::variants::{builtin, hd_icp, VariantConfig};
+use icp_core::{Registrar, Scan, SensorModel};
+use indicatif::ProgressBar;
+use nalgebra::{Isometry2, Point2, Vector2};
+
+/// The message of an error, or what went through instead.
+fn error_of<T: std::fmt::Debug, E: Display>(r: Result<T, E>) -> String {
+    match r {
+        Ok(v) => format!("no error: {v:?}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+// ---- The marina MATLAB loader -------------------------------------------------------------
+
+/// A small well-formed file set (4 beams × 3 scans) with `ranges.mat` replaced.
+fn marina_with_ranges(ranges: &[u8]) -> Result<datasets::Dataset, datasets::DatasetError> {
+    let angles: Vec<f64> = (0..12).map(|i| (i % 4) as f64 * 0.5).collect();
+    let pose = [0.0, 1.0, 2.0, 0.0, 0.1, 0.2, 0.0, 0.0, 0.0];
+    marina::parse(
+        [
+            (
+                Path::new("angles.mat"),
+                &write_doubles(&[("angles_baza", 4, 3, &angles)]).unwrap()[..],
+            ),
+            (Path::new("ranges.mat"), ranges),
+            (
+                Path::new("gps.mat"),
+                &write_doubles(&[("slam_pose", 3, 3, &pose)]).unwrap()[..],
+            ),
+        ],
+        &MarinaOptions::default(),
+    )
+}
+
+fn ranges_mat(values: &[f64; 12]) -> Vec<u8> {
+    write_doubles(&[("ranges_baza", 4, 3, values)]).unwrap()
+}
+
+const GOOD_RANGES: [f64; 12] = [5.0, 6.0, 7.0, 8.0, 5.1, 6.1, 7.1, 8.1, 5.2, 6.2, 7.2, 8.2];
+
+#[test]
+fn marina_empty_file() {
+    assert_eq!(
+        error_of(marina_with_ranges(b"")),
+        "ranges.mat is not a readable MATLAB v5 file: 0 bytes, shorter than the 128-byte MATLAB v5 header"
+    );
+}
+
+#[test]
+fn marina_truncated_file() {
+    let bytes = ranges_mat(&GOOD_RANGES);
+    assert_eq!(
+        error_of(marina_with_ranges(&bytes[..bytes.len() - 20])),
+        "ranges.mat is not a readable MATLAB v5 file: truncated: the data element at byte 128 declares 160 bytes, 140 remain"
+    );
+}
+
+#[test]
+fn marina_wrong_magic() {
+    let mut zip = b"PK\x03\x04 this is a zip archive".to_vec();
+    zip.resize(300, 0);
+    assert_eq!(
+        error_of(marina_with_ranges(&zip)),
+        "ranges.mat is not a readable MATLAB v5 file: the header does not start with \"MATLAB 5.0 MAT-file\""
+    );
+}
+
+#[test]
+fn marina_wrong_variable_name() {
+    let bytes = write_doubles(&[("ranges", 4, 3, &GOOD_RANGES)]).unwrap();
+    assert_eq!(
+        error_of(marina_with_ranges(&bytes)),
+        "ranges.mat has no variable \"ranges_baza\" (found: [\"ranges\"])"
+    );
+}
+
+#[test]
+fn marina_mismatched_shape() {
+    let bytes = write_doubles(&[("ranges_baza", 4, 2, &GOOD_RANGES[..8])]).unwrap();
+    assert_eq!(
+        error_of(marina_with_ranges(&bytes)),
+        "\"ranges_baza\" in ranges.mat has shape [4, 2], expected 4 x 3 like angles_baza"
+    );
+}
+
+#[test]
+fn marina_negative_range() {
+    let mut r = GOOD_RANGES;
+    r[5] = -1.0;
+    assert_eq!(
+        error_of(marina_with_ranges(&ranges_mat(&r))),
+        "ranges.mat: scan 1: negative range at index 1: -1 m"
+    );
+}
+
+#[test]
+fn marina_infinite_range() {
+    let mut r = GOOD_RANGES;
+    r[2] = f64::INFINITY;
+    assert_eq!(
+        error_of(marina_with_ranges(&ranges_mat(&r))),
+        "ranges.mat: scan 0: non-finite range at index 2: inf"
+    );
+}
+
+/// NaN (and 0) is the files' own no-return marker: dropped and counted, not an error.
+#[test]
+fn marina_nan_range_is_a_counted_no_return() {
+    let mut r = GOOD_RANGES;
+    r[1] = f64::NAN;
+    let ds = marina_with_ranges(&ranges_mat(&r)).unwrap();
+    let counts: Vec<(usize, usize)> = ds.scans.iter().map(|s| (s.len(), s.no_returns())).collect();
+    assert_eq!(counts, vec![(3, 1), (4, 0), (4, 0)]);
+}
+
+// ---- CARMEN and CSV text logs -------------------------------------------------------------
+
+fn carmen_log(text: &str) -> String {
+    error_of(carmen::parse(
+        Path::new("robot.log"),
+        text.as_bytes(),
+        &CarmenOptions::default(),
+    ))
+}
+
+#[test]
+fn carmen_non_numeric_field() {
+    assert_eq!(
+        carmen_log("FLASER 3 1.0 abc 2.0 0 0 0 0 0 0 1.0 host 1.0\n"),
+        "robot.log:1: reading 1 is not a number: \"abc\""
+    );
+}
+
+#[test]
+fn carmen_truncated_line() {
+    assert_eq!(
+        carmen_log("FLASER 5 1.0 2.0 3.0\n"),
+        "robot.log:1: 3 fields after the count, 14 expected for 5 readings"
+    );
+}
+
+#[test]
+fn carmen_negative_range() {
+    assert_eq!(
+        carmen_log("FLASER 3 1.0 -2.0 2.0 0 0 0 0 0 0 1.0 host 1.0\n"),
+        "robot.log:1: reading 1 is negative: -2"
+    );
+}
+
+fn csv_scans(text: &str) -> String {
+    error_of(csvdir::parse(
+        (Path::new("scans.csv"), text.as_bytes()),
+        None,
+        &DatasetMeta::default(),
+        "test",
+    ))
+}
+
+#[test]
+fn csv_non_numeric_field() {
+    assert_eq!(
+        csv_scans("scan,timestamp_s,range_m,bearing_rad\n0,0.0,five,0\n"),
+        "scans.csv:2: CSV deserialize error: record 1 (line: 2, byte: 37): field 2: invalid float literal"
+    );
+}
+
+#[test]
+fn csv_infinite_bearing() {
+    assert_eq!(
+        csv_scans("scan,timestamp_s,range_m,bearing_rad\n0,0.0,5,inf\n"),
+        "scans.csv: scan 0: non-finite bearing at index 0: inf"
+    );
+}
+
+#[test]
+fn csv_wrong_header() {
+    assert_eq!(
+        csv_scans("id,t,r,a\n0,0.0,5,0\n"),
+        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad)"
+    );
+}
+
+// ---- Registration (the core) --------------------------------------------------------------
+
+fn register(source: &[[f64; 2]], reference: &[[f64; 2]]) -> String {
+    let (s, r) = match (
+        Scan::from_cartesian(source),
+        Scan::from_cartesian(reference),
+    ) {
+        (Ok(s), Ok(r)) => (s, r),
+        (Err(e), _) | (_, Err(e)) => return e.to_string(),
+    };
+    error_of(hd_icp(SensorModel::sweep()).register(&s, &r, Isometry2::identity()))
+}
+
+/// Three walls seen from the origin.
+fn harbour() -> Vec<[f64; 2]> {
+    (0..150)
+        .map(|i| {
+            let s = (i / 3) as f64 * 0.3;
+            match i % 3 {
+                0 => [12.0, -7.0 + s],
+                1 => [-4.0 + s, 9.0],
+                _ => [-4.0 + 0.5 * s, -8.0 - 0.2 * s],
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn scan_with_zero_points() {
+    assert_eq!(
+        register(&[], &harbour()),
+        "source scan has 0 usable points, at least 3 are needed"
+    );
+}
+
+#[test]
+fn scan_with_one_point() {
+    assert_eq!(
+        register(&harbour(), &[[1.0, 2.0]]),
+        "reference scan has 1 usable points, at least 3 are needed"
+    );
+}
+
+#[test]
+fn scan_with_two_points() {
+    assert_eq!(
+        register(&[[1.0, 2.0], [3.0, 1.0]], &harbour()),
+        "source scan has 2 usable points, at least 3 are needed"
+    );
+}
+
+#[test]
+fn nan_coordinate() {
+    assert_eq!(
+        register(&[[1.0, f64::NAN]], &harbour()),
+        "non-finite coordinate at index 0: NaN"
+    );
+}
+
+#[test]
+fn all_points_collinear() {
+    let corridor: Vec<[f64; 2]> = (0..100).map(|i| [0.2 * i as f64, 3.0]).collect();
+    assert_eq!(
+        register(&harbour(), &corridor),
+        "reference scan is ill-conditioned: all points are collinear"
+    );
+}
+
+#[test]
+fn all_points_identical() {
+    assert_eq!(
+        register(&[[4.0, 4.0]; 50], &harbour()),
+        "source scan is ill-conditioned: all points coincide"
+    );
+}
+
+/// Zero motion comes out as exactly zero, not as a rounding-sized motion.
+#[test]
+fn two_identical_scans_give_exactly_the_identity() {
+    let scan = Scan::from_cartesian(&harbour()).unwrap();
+    for name in icp_core::variants::builtin_names() {
+        let reg = builtin(name, &VariantConfig::default())
+            .unwrap()
+            .build()
+            .unwrap()
+            .register(&scan, &scan, Isometry2::identity())
+            .unwrap();
+        assert_eq!(reg.t_ref_src, Isometry2::identity(), "{name}");
+        assert_eq!(reg.mean_dist_m, 0.0, "{name}");
+        assert!(reg.converged() && !reg.no_overlap(), "{name}");
+    }
+}
+
+/// Scans a billion metres from the sensor register as they do near it: the same displacement
+/// of the scanned points at their centroid (uniform weights; the range-based ones change with
+/// the ranges).
+#[test]
+fn huge_coordinates() {
+    let displacement = |offset: f64| {
+        let at = |dx: f64| -> Vec<[f64; 2]> {
+            harbour()
+                .iter()
+                .map(|p| [p[0] + offset + dx, p[1] - offset])
+                .collect()
+        };
+        let reg = builtin("H_ICP", &VariantConfig::default())
+            .unwrap()
+            .build()
+            .unwrap()
+            .register(
+                &Scan::from_cartesian(&at(0.0)).unwrap(),
+                &Scan::from_cartesian(&at(-0.05)).unwrap(),
+                Isometry2::identity(),
+            )
+            .unwrap();
+        let pts = at(0.0);
+        let n = pts.len() as f64;
+        let c = Point2::new(
+            pts.iter().map(|p| p[0]).sum::<f64>() / n,
+            pts.iter().map(|p| p[1]).sum::<f64>() / n,
+        );
+        reg.t_ref_src * c - c
+    };
+    let (near, far) = (displacement(0.0), displacement(1e9));
+    assert!((near - Vector2::new(-0.05, 0.0)).norm() < 0.01, "{near}");
+    assert!((far - near).norm() < 1e-4, "{far} vs {near}");
+}
+
+/// Two scans of different places: the registration runs, and is flagged, not trusted.
+#[test]
+fn scan_pair_with_no_overlap() {
+    let ring: Vec<[f64; 2]> = (0..200)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 200.0;
+            [25.0 * a.cos(), 25.0 * a.sin()]
+        })
+        .collect();
+    let reg = hd_icp(SensorModel::sweep())
+        .register(
+            &Scan::from_cartesian(&harbour()).unwrap(),
+            &Scan::from_cartesian(&ring).unwrap(),
+            Isometry2::identity(),
+        )
+        .unwrap();
+    assert!(reg.no_overlap(), "{reg:?}");
+}
+
+// ---- The harness --------------------------------------------------------------------------
+
+/// A run over a synthetic dataset with scan 2 replaced by `scan`.
+fn run_with_scan_2(scan: Scan) -> eval::RunReport {
+    let mut ds = generate(&Scenario {
+        n_scans: 5,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    ds.scans[2] = scan.with_timestamp(0.4).unwrap();
+    let setup = EvalSetup {
+        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
+        offset: OffsetChoice::Fixed(0),
+    };
+    evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
+}
+
+#[test]
+fn harness_skips_and_counts_a_pair_with_an_empty_scan() {
+    let report = run_with_scan_2(Scan::from_polar(&[0.0, f64::NAN], &[0.0, 0.1]).unwrap());
+    let skipped: Vec<String> = report
+        .dataset
+        .skipped_pairs
+        .iter()
+        .map(|s| s.reason.clone())
+        .collect();
+    assert_eq!(skipped, vec!["scan 2 has 0 valid returns (< 3)"; 2]);
+    assert_eq!(report.variants[0].pairs_ok, 2);
+}
+
+#[test]
+fn harness_flags_and_counts_a_pair_with_no_overlap() {
+    let ring: Vec<[f64; 2]> = (0..300)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 300.0;
+            [400.0 + 3.0 * a.cos(), 3.0 * a.sin()]
+        })
+        .collect();
+    let report = run_with_scan_2(Scan::from_cartesian(&ring).unwrap());
+    let v = &report.variants[0];
+    assert_eq!(v.no_overlap_pairs, vec![1, 2]);
+    let status: Vec<&str> = report.pairs.iter().map(|r| r.status.as_str()).collect();
+    assert_eq!(
+        status,
+        vec![
+            "ok",
+            "no overlap: 0 % of the pairs within 0.5 m (< 10 %)",
+            "no overlap: 2 % of the pairs within 0.5 m (< 10 %)",
+            "ok"
+        ]
+    );
+    assert_eq!(
+        v.pairs_ok, 2,
+        "flagged pairs are left out of the statistics"
+    );
+    let table = eval::output::table_md(&report);
+    assert!(
+        table.contains("Registrations without overlap (flagged by their final pair distances, left out of the statistics): 2."),
+        "{table}"
+    );
+}
+
+#[test]
+fn unwritable_output_directory() {
+    let dir = common::scratch_dir("matrix_unwritable");
+    std::fs::write(dir.join("file"), "x").unwrap();
+    let out = dir.join("file").join("out");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+        .args([
+            "run",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "3",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        err.trim_end(),
+        format!(
+            "error: writing the reports: {}: Not a directory (os error 20)",
+            out.display()
+        )
+    );
+}
