@@ -146,7 +146,7 @@ impl Registration {
 
     /// True when too few final pairs are close (overlap below [`MIN_OVERLAP`], or NaN).
     pub fn no_overlap(&self) -> bool {
-        !(self.overlap >= MIN_OVERLAP)
+        self.overlap.is_nan() || self.overlap < MIN_OVERLAP
     }
 }
 
