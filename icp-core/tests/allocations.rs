@@ -3,7 +3,7 @@
 //! `allocation-counter`'s counting global allocator (this test binary only).
 
 use icp_core::variants::{builtin, builtin_names, VariantConfig};
-use icp_core::{Registrar, Scan, Termination};
+use icp_core::{Scan, Termination};
 use nalgebra::{Isometry2, Point2, Vector2};
 
 /// Three walls with a bump, seen from the origin, and the same after a small motion.
