@@ -100,22 +100,23 @@ pub fn find_in(looked: Vec<PathBuf>) -> Result<PathBuf, DatasetError> {
 
 /// Loads the marina dataset from `dir` (the folder holding the three files).
 pub fn load(dir: &Path, options: &MarinaOptions) -> Result<Dataset, DatasetError> {
-    let mut bytes = Vec::new();
-    let mut files = Vec::new();
-    for (name, _) in FILES {
+    // The files are read and hashed side by side: hashing 1.6 MB is a third of the load.
+    let read = |name: &str| -> Result<(FileProvenance, Vec<u8>), DatasetError> {
         let path = dir.join(name);
         let data = std::fs::read(&path).map_err(|source| DatasetError::Io {
             path: path.clone(),
             source,
         })?;
         let sha256 = hex(&Sha256::digest(&data));
-        files.push(FileProvenance {
+        let file = FileProvenance {
             matches_pinned: pinned_sha256(name).map(|p| p == sha256),
             path,
             sha256,
-        });
-        bytes.push(data);
-    }
+        };
+        Ok((file, data))
+    };
+    let [angles, ranges, gps] = side_by_side(FILES.map(|(name, _)| move || read(name)));
+    let (files, bytes): (Vec<_>, Vec<_>) = [angles?, ranges?, gps?].into_iter().unzip();
     let mut dataset = parse(
         [
             (&files[0].path, &bytes[0][..]),
@@ -128,9 +129,20 @@ pub fn load(dir: &Path, options: &MarinaOptions) -> Result<Dataset, DatasetError
     Ok(dataset)
 }
 
+/// Runs three jobs on their own threads and returns their results in order.
+fn side_by_side<T: Send, F: FnOnce() -> T + Send>(jobs: [F; 3]) -> [T; 3] {
+    std::thread::scope(|scope| {
+        jobs.map(|job| scope.spawn(job)).map(|handle| {
+            handle
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+        })
+    })
+}
+
 /// Parses the three files (angles, ranges, gps, in that order), each given with the path used
 /// in error messages.
-pub fn parse<R: Read>(
+pub fn parse<R: Read + Send>(
     inputs: [(&Path, R); 3],
     options: &MarinaOptions,
 ) -> Result<Dataset, DatasetError> {
@@ -148,10 +160,19 @@ pub fn parse<R: Read>(
             path: PathBuf::from("<sensor model>"),
             what: e.to_string(),
         })?;
-    let [(angles_path, angles), (ranges_path, ranges), (gps_path, gps)] = inputs;
-    let angles = read_matrix(angles_path, angles, FILES[0].1)?;
-    let ranges = read_matrix(ranges_path, ranges, FILES[1].1)?;
-    let pose = read_matrix(gps_path, gps, FILES[2].1)?;
+    let [_, ranges_path, gps_path] = inputs.each_ref().map(|(path, _)| *path);
+    // Decompressed side by side; errors are reported in file order.
+    let [angles, ranges, gps] = inputs;
+    let [angles_name, ranges_name, gps_name] = FILES.map(|(_, variable)| variable);
+    let [angles, ranges, pose] = side_by_side(
+        [
+            (angles, angles_name),
+            (ranges, ranges_name),
+            (gps, gps_name),
+        ]
+        .map(|((path, reader), name)| move || read_matrix(path, reader, name)),
+    );
+    let (angles, ranges, pose) = (angles?, ranges?, pose?);
     if angles.rows != ranges.rows || angles.cols != ranges.cols {
         return Err(DatasetError::Shape {
             path: ranges_path.to_path_buf(),
