@@ -20,6 +20,7 @@ pub mod published;
 pub mod reference;
 pub mod report;
 pub mod runner;
+pub mod scaling;
 pub mod stats;
 pub mod sweep;
 

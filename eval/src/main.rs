@@ -43,8 +43,31 @@ enum Command {
     Gate(GateArgs),
     /// Generate a synthetic harbour dataset and write it in our CSV format.
     Synth(SynthArgs),
+    /// Time one variant on synthetic scan pairs of growing size: time per registration,
+    /// iterations and time per point and iteration (scaling.md, .json, .png, .svg).
+    Scaling(ScalingArgs),
     /// List the built-in variants and the stages a configuration file can name.
     List,
+}
+
+#[derive(Args)]
+struct ScalingArgs {
+    /// Built-in variant to time.
+    #[arg(long, default_value = "HD_ICP")]
+    variant: String,
+    /// Beams per scanner revolution, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "100,300,1000,3000,10000,30000,100000"
+    )]
+    beams: Vec<usize>,
+    /// Seconds spent timing each size (at least 3 registrations each).
+    #[arg(long, default_value_t = 1.0)]
+    budget_s: f64,
+    /// Output directory.
+    #[arg(long, default_value = "reports/performance")]
+    out: PathBuf,
 }
 
 #[derive(Args)]
@@ -230,6 +253,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Compare(args) => compare_cmd(args),
         Command::Gate(args) => gate_cmd(args),
         Command::Synth(args) => synth(args),
+        Command::Scaling(args) => scaling(args),
         Command::List => list(),
     }
 }
@@ -491,6 +515,28 @@ fn synth(args: SynthArgs) -> Result<ExitCode> {
     datasets::csvdir::write(&args.out, &ds)
         .with_context(|| format!("writing {}", args.out.display()))?;
     println!("{} scans written to {}", ds.scans.len(), args.out.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+fn scaling(args: ScalingArgs) -> Result<ExitCode> {
+    let spec = builtin(&args.variant, &VariantConfig::default()).with_context(|| {
+        let known = builtin_names().collect::<Vec<_>>().join(", ");
+        format!(
+            "unknown variant {:?}: expected one of {known}",
+            args.variant
+        )
+    })?;
+    let result = eval::scaling::measure(&spec, &args.beams, args.budget_s)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let md = eval::scaling::scaling_md(&result);
+    eval::output::write_atomic(&args.out.join("scaling.md"), md.as_bytes())?;
+    eval::output::write_atomic(
+        &args.out.join("scaling.json"),
+        (serde_json::to_string_pretty(&result)? + "\n").as_bytes(),
+    )?;
+    eval::plots::write_scaling(&args.out, &result)?;
+    print!("{md}");
     Ok(ExitCode::SUCCESS)
 }
 

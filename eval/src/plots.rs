@@ -632,3 +632,123 @@ impl Figure for SweepFigure<'_> {
 pub fn write_sweep(dir: &Path, result: &crate::sweep::SweepResult) -> Result<(), EvalError> {
     save(dir, "sweep", &SweepFigure { result })
 }
+
+struct ScalingFigure<'a> {
+    result: &'a crate::scaling::ScalingResult,
+}
+
+impl Figure for ScalingFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1500, 520)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let title = format!(
+            "{}: cost against scan size (synthetic harbour, one registration)",
+            self.result.variant
+        );
+        let root = root.titled(&title, (FONT, 22)).map_err(err)?;
+        let pts = &self.result.points;
+        let n = |p: &crate::scaling::ScalingPoint| p.returns.max(1) as f64;
+        let (x0, x1) = pts.iter().fold((f64::INFINITY, 1.0f64), |(a, b), p| {
+            (a.min(n(p)), b.max(n(p)))
+        });
+        let xr = (x0 / 1.5).max(1.0)..x1 * 1.5;
+        let per_iteration =
+            |p: &crate::scaling::ScalingPoint| p.median_us / (p.iterations + 1) as f64;
+        // An n log n guide through the first per-iteration time.
+        let guide = |x: f64| {
+            pts.first().map_or(f64::NAN, |p| {
+                per_iteration(p) * x * x.ln() / (n(p) * n(p).ln().max(1.0))
+            })
+        };
+        type Get<'g> = Box<dyn Fn(&crate::scaling::ScalingPoint) -> f64 + 'g>;
+        let panels: [(&str, Vec<(&str, RGBColor, Get)>); 3] = [
+            (
+                "time (µs)",
+                vec![
+                    ("per registration", COLORS[0], Box::new(|p| p.median_us)),
+                    ("per iteration", COLORS[3], Box::new(per_iteration)),
+                ],
+            ),
+            (
+                "iterations",
+                vec![("iterations", COLORS[2], Box::new(|p| p.iterations as f64))],
+            ),
+            (
+                "ns per point and iteration",
+                vec![(
+                    "ns per point and iteration",
+                    COLORS[4],
+                    Box::new(|p| p.ns_per_point_iteration),
+                )],
+            ),
+        ];
+        for (i, (area, (label, series))) in root.split_evenly((1, 3)).iter().zip(panels).enumerate()
+        {
+            let ys: Vec<f64> = series
+                .iter()
+                .flat_map(|(_, _, get)| pts.iter().map(get))
+                .filter(|y| y.is_finite() && *y > 0.0)
+                .collect();
+            let hi = ys.iter().copied().fold(1.0f64, f64::max) * 1.5;
+            let lo = ys.iter().copied().fold(f64::INFINITY, f64::min).min(hi) / 1.5;
+            let mut chart = ChartBuilder::on(area)
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d(xr.clone().log_scale(), (lo..hi).log_scale())
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc("returns per scan")
+                .y_desc(label)
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .y_label_formatter(&|v| format!("{v:.0}"))
+                .draw()
+                .map_err(err)?;
+            for (name, color, get) in &series {
+                let xy: Vec<(f64, f64)> = pts.iter().map(|p| (n(p), get(p))).collect();
+                let color = *color;
+                chart
+                    .draw_series(LineSeries::new(xy.iter().copied(), color.stroke_width(2)))
+                    .map_err(err)?
+                    .label(*name)
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                    });
+                chart
+                    .draw_series(xy.iter().map(|&p| Circle::new(p, 4, color.filled())))
+                    .map_err(err)?;
+            }
+            if i == 0 {
+                let xs = (0..=40).map(|k| xr.start * (xr.end / xr.start).powf(k as f64 / 40.0));
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        xs.map(|x| (x, guide(x))).filter(|p| p.1 > lo && p.1 < hi),
+                        6,
+                        4,
+                        COLORS[5].stroke_width(1),
+                    ))
+                    .map_err(err)?
+                    .label("n log n")
+                    .legend(|(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], COLORS[5].stroke_width(1))
+                    });
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperLeft)
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .draw()
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}
+
+/// Draws `scaling.png` and `scaling.svg`.
+pub fn write_scaling(dir: &Path, result: &crate::scaling::ScalingResult) -> Result<(), EvalError> {
+    save(dir, "scaling", &ScalingFigure { result })
+}
