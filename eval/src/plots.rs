@@ -663,7 +663,8 @@ impl Figure for ScalingFigure<'_> {
             })
         };
         type Get<'g> = Box<dyn Fn(&crate::scaling::ScalingPoint) -> f64 + 'g>;
-        let panels: [(&str, Vec<(&str, RGBColor, Get)>); 3] = [
+        type Series<'g> = Vec<(&'static str, RGBColor, Get<'g>)>;
+        let panels: [(&str, Series); 3] = [
             (
                 "time (µs)",
                 vec![
