@@ -10,7 +10,7 @@ use crate::robust::RobustKernel;
 use crate::scan::{check_geometry, Return, Scan, MIN_POINTS};
 use crate::select::Selection;
 use crate::termination::{StopReason, Termination};
-use crate::weighting::{PairView, PairWeighting};
+use crate::weighting::{PairBatch, PairWeighting};
 use crate::IcpError;
 
 /// The outcome of one registration of a source scan onto a reference scan.
@@ -261,11 +261,6 @@ impl<S, M, W, K, X> Icp<S, M, W, K, X> {
     }
 }
 
-/// Mean of the pair distances, metres.
-fn mean_distance(pairs: &[Correspondence]) -> f64 {
-    pairs.iter().map(|p| p.dist_sq.sqrt()).sum::<f64>() / pairs.len() as f64
-}
-
 impl<S, M, W, K, X> Registrar for Icp<S, M, W, K, X>
 where
     S: Selection,
@@ -322,6 +317,7 @@ where
         let mut moved = src_pts.clone();
         let mut matches = Matches::with_capacity(src.len());
         let mut weights = Vec::with_capacity(src.len());
+        let mut dists = Vec::with_capacity(src.len());
         let mut scratch = Vec::with_capacity(src.len());
 
         let mut t_ref_src = init;
@@ -334,7 +330,9 @@ where
             }
             index.match_all(&moved, &mut matches); // Alg. 1 step 2
             let pairs = &matches.pairs;
-            let mean = mean_distance(pairs); // Alg. 1 step 6: the mean pair distance
+            dists.clear();
+            dists.extend(pairs.iter().map(|p| p.dist_sq.sqrt()));
+            let mean = dists.iter().sum::<f64>() / dists.len() as f64; // Alg. 1 step 6
             if let Some(prev) = previous_mean {
                 if self.termination.converged(prev, mean) {
                     break (StopReason::Converged, mean);
@@ -344,17 +342,17 @@ where
                 break (StopReason::MaxIterations, mean);
             }
             // Alg. 1 step 3, eqs. 11–13: the scheme's weight of each pair.
-            weights.clear();
-            weights.extend(pairs.iter().map(|c| {
-                self.weighting.weight(&PairView {
-                    src: &src[c.src],
-                    dst: &dst[c.dst],
-                    src_moved: moved[c.src],
-                    rotation_ref_src: t_ref_src.rotation,
-                })
-            }));
-            self.robust.reweight(pairs, &mut weights, &mut scratch); // Alg. 1 step 4, Huber
-                                                                     // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
+            let batch = PairBatch {
+                pairs,
+                src: &src,
+                dst: &dst,
+                src_moved: &moved,
+                rotation_ref_src: t_ref_src.rotation,
+            };
+            self.weighting.weigh_all(&batch, &mut weights);
+            // Alg. 1 step 4: the robust factor (Huber), from the pair distances.
+            self.robust.reweight(&dists, &mut weights, &mut scratch);
+            // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
             let increment = self.minimizer.solve(&moved, &dst_pts, pairs, &weights)?;
             last_weight_sum = weights.iter().sum();
             t_ref_src = increment * t_ref_src;

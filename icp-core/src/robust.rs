@@ -2,13 +2,12 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::matching::Correspondence;
-
 /// Multiplies pair weights by a robust factor computed over all the pairs of an iteration
 /// (the batch is needed because thresholds such as the median depend on it).
 pub trait RobustKernel: Send + Sync {
-    /// Scales `weights[i]` (one per pair) in place. `scratch` is a reusable buffer.
-    fn reweight(&self, pairs: &[Correspondence], weights: &mut [f64], scratch: &mut Vec<f64>);
+    /// Scales `weights[i]` in place from the pair distances `dist_m[i]` (metres, one per pair,
+    /// computed once per iteration). `scratch` is a reusable buffer.
+    fn reweight(&self, dist_m: &[f64], weights: &mut [f64], scratch: &mut Vec<f64>);
 }
 
 /// No rejection: weights are left as they are (K_ICP).
@@ -16,7 +15,7 @@ pub trait RobustKernel: Send + Sync {
 pub struct NoRobust;
 
 impl RobustKernel for NoRobust {
-    fn reweight(&self, _pairs: &[Correspondence], _weights: &mut [f64], _scratch: &mut Vec<f64>) {}
+    fn reweight(&self, _dist_m: &[f64], _weights: &mut [f64], _scratch: &mut Vec<f64>) {}
 }
 
 /// The robust kernels: each maps `u = d / k` (a pair's distance over the threshold) to a
@@ -99,31 +98,31 @@ impl MedianScaled {
 }
 
 impl RobustKernel for MedianScaled {
-    fn reweight(&self, pairs: &[Correspondence], weights: &mut [f64], scratch: &mut Vec<f64>) {
+    fn reweight(&self, dist_m: &[f64], weights: &mut [f64], scratch: &mut Vec<f64>) {
         scratch.clear();
-        scratch.extend(pairs.iter().map(|p| p.dist_sq.sqrt()));
+        scratch.extend_from_slice(dist_m);
         let Some(median) = median_in_place(scratch) else {
             return;
         };
         let k = self.c * median;
         if k <= 0.0 {
             // More than half of the pairs coincide exactly: keep those, drop the rest.
-            for (p, w) in pairs.iter().zip(weights.iter_mut()) {
-                if p.dist_sq > 0.0 {
+            for (&d, w) in dist_m.iter().zip(weights.iter_mut()) {
+                if d > 0.0 {
                     *w = 0.0;
                 }
             }
             return;
         }
-        for (p, w) in pairs.iter().zip(weights.iter_mut()) {
-            *w *= self.kernel.factor(p.dist_sq.sqrt() / k);
+        for (&d, w) in dist_m.iter().zip(weights.iter_mut()) {
+            *w *= self.kernel.factor(d / k);
         }
     }
 }
 
 impl<K: RobustKernel + ?Sized> RobustKernel for Box<K> {
-    fn reweight(&self, pairs: &[Correspondence], weights: &mut [f64], scratch: &mut Vec<f64>) {
-        (**self).reweight(pairs, weights, scratch)
+    fn reweight(&self, dist_m: &[f64], weights: &mut [f64], scratch: &mut Vec<f64>) {
+        (**self).reweight(dist_m, weights, scratch)
     }
 }
 
@@ -152,17 +151,6 @@ pub fn median_in_place(values: &mut [f64]) -> Option<f64> {
 mod tests {
     use super::*;
 
-    fn pairs(d: &[f64]) -> Vec<Correspondence> {
-        d.iter()
-            .enumerate()
-            .map(|(i, &d)| Correspondence {
-                src: i,
-                dst: i,
-                dist_sq: d * d,
-            })
-            .collect()
-    }
-
     #[test]
     fn median_by_hand() {
         assert_eq!(median_in_place(&mut []), None);
@@ -174,7 +162,7 @@ mod tests {
     #[test]
     fn huber_threshold_by_hand() {
         // Distances 0.1, 0.2, 0.3, 0.4, 5.0: median 0.3, kHu = 2.0138 * 0.3 = 0.60414.
-        let p = pairs(&[0.1, 0.2, 0.3, 0.4, 5.0]);
+        let p = [0.1, 0.2, 0.3, 0.4, 5.0];
         let mut w = vec![2.0; 5];
         MedianScaled::paper_huber().reweight(&p, &mut w, &mut Vec::new());
         assert_eq!(&w[..4], &[2.0; 4]);
@@ -197,7 +185,7 @@ mod tests {
         assert_eq!(Kernel::Cauchy.factor(2.0), 0.2);
         assert_eq!(Kernel::GemanMcClure.factor(2.0), 0.04);
         // Tukey with c = 4 on distances whose median is 0.3: k = 1.2, so 5.0 is rejected.
-        let p = pairs(&[0.1, 0.2, 0.3, 0.4, 5.0]);
+        let p = [0.1, 0.2, 0.3, 0.4, 5.0];
         let mut w = vec![1.0; 5];
         MedianScaled {
             kernel: Kernel::Tukey,
@@ -210,7 +198,7 @@ mod tests {
 
     #[test]
     fn zero_median_keeps_only_the_coincident_pairs() {
-        let p = pairs(&[0.0, 0.0, 0.0, 0.5]);
+        let p = [0.0, 0.0, 0.0, 0.5];
         let mut w = vec![1.0; 4];
         MedianScaled::paper_huber().reweight(&p, &mut w, &mut Vec::new());
         assert_eq!(w, vec![1.0, 1.0, 1.0, 0.0]);
@@ -218,7 +206,7 @@ mod tests {
 
     #[test]
     fn no_robust_leaves_weights() {
-        let p = pairs(&[0.1, 100.0]);
+        let p = [0.1, 100.0];
         let mut w = vec![1.5, 0.5];
         NoRobust.reweight(&p, &mut w, &mut Vec::new());
         assert_eq!(w, vec![1.5, 0.5]);

@@ -4,6 +4,8 @@
 //! the README's recipe.
 
 use nalgebra::{Point2, UnitComplex};
+
+use crate::matching::Correspondence;
 use serde::{Deserialize, Serialize};
 
 use crate::scan::Return;
@@ -32,16 +34,50 @@ pub struct PairView<'a> {
     pub rotation_ref_src: UnitComplex<f64>,
 }
 
+/// The pairs of one iteration, from which each [`PairView`] is made.
+#[derive(Clone, Copy, Debug)]
+pub struct PairBatch<'a> {
+    /// The matched pairs (indices into `src`/`src_moved` and `dst`).
+    pub pairs: &'a [Correspondence],
+    /// The source returns (scan k), in scan k's frame.
+    pub src: &'a [Return],
+    /// The reference returns (scan k+1), in scan k+1's frame.
+    pub dst: &'a [Return],
+    /// The source points moved by the current estimate into scan k+1's frame.
+    pub src_moved: &'a [Point2<f64>],
+    /// Rotation of the current estimate `t_ref_src`.
+    pub rotation_ref_src: UnitComplex<f64>,
+}
+
 /// Gives each pair its weight `w_i` of eq. 14.
 pub trait PairWeighting: Send + Sync {
     /// The weight of one pair: finite and positive.
     fn weight(&self, pair: &PairView<'_>) -> f64;
+
+    /// The weights of every pair of `batch`, in order, into `out` (cleared first). There is no
+    /// need to override it: it exists so that a boxed scheme costs one dynamic call per
+    /// iteration, with [`PairWeighting::weight`] inlined in the loop, not one call per pair.
+    fn weigh_all(&self, batch: &PairBatch<'_>, out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(batch.pairs.iter().map(|c| {
+            self.weight(&PairView {
+                src: &batch.src[c.src],
+                dst: &batch.dst[c.dst],
+                src_moved: batch.src_moved[c.src],
+                rotation_ref_src: batch.rotation_ref_src,
+            })
+        }));
+    }
 }
 
 impl<W: PairWeighting + ?Sized> PairWeighting for Box<W> {
     #[inline]
     fn weight(&self, pair: &PairView<'_>) -> f64 {
         (**self).weight(pair)
+    }
+
+    fn weigh_all(&self, batch: &PairBatch<'_>, out: &mut Vec<f64>) {
+        (**self).weigh_all(batch, out)
     }
 }
 
