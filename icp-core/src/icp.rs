@@ -155,23 +155,42 @@ impl Registration {
 /// Both are needed: a small scan can settle inside a larger one with most of its own points
 /// near surfaces.
 fn overlap(moved: &[Point2<f64>], dst: &[Point2<f64>], pairs: &[Correspondence]) -> f64 {
-    let close = |pairs: &[Correspondence]| {
-        let n = pairs
-            .iter()
-            .filter(|p| p.dist_sq <= OVERLAP_GATE_M * OVERLAP_GATE_M)
-            .count();
-        if pairs.is_empty() {
-            0.0
-        } else {
-            n as f64 / pairs.len() as f64
+    let gate_sq = OVERLAP_GATE_M * OVERLAP_GATE_M;
+    if pairs.is_empty() || dst.is_empty() {
+        return 0.0;
+    }
+    let forward = pairs.iter().filter(|p| p.dist_sq <= gate_sq).count() as f64 / pairs.len() as f64;
+    // A reference point is near without a search when it is a close pair's, or close to the
+    // source point paired with a scan neighbour of it; the others are searched.
+    let (mut partner, mut near) = (vec![None; dst.len()], vec![false; dst.len()]);
+    for p in pairs {
+        partner[p.dst] = Some(p.src);
+        near[p.dst] |= p.dist_sq <= gate_sq;
+    }
+    // Sized up front: the allocations of a registration do not depend on its pose.
+    let mut unresolved = Vec::with_capacity(dst.len());
+    for (j, q) in dst.iter().enumerate() {
+        let by_neighbour = || {
+            [j.wrapping_sub(1), j + 1]
+                .iter()
+                .filter_map(|&k| partner.get(k).copied().flatten())
+                .any(|i: usize| (moved[i] - q).norm_squared() <= gate_sq)
+        };
+        if !near[j] && !by_neighbour() {
+            unresolved.push(*q);
         }
-    };
-    let backward = Grid.build(moved).map_or(0.0, |index| {
-        let mut matches = Matches::default();
-        index.match_all(dst, &mut matches);
-        close(&matches.pairs)
+    }
+    let searched_near = Grid.build(moved).map_or(0, |index| {
+        let mut matches = Matches::with_capacity(dst.len());
+        index.match_all(&unresolved, &mut matches);
+        matches
+            .pairs
+            .iter()
+            .filter(|p| p.dist_sq <= gate_sq)
+            .count()
     });
-    close(pairs).min(backward)
+    let backward = (dst.len() - unresolved.len() + searched_near) as f64 / dst.len() as f64;
+    forward.min(backward)
 }
 
 /// A registration method: estimates `t_ref_src` from two scans and an initial guess.

@@ -1,7 +1,7 @@
 //! Exact nearest neighbour on a uniform grid, with certificates that spare most searches of
 //! an ICP iteration.
 //!
-//! The reference points are bucketed into square cells (struct of arrays, in cell order). A
+//! The reference points are bucketed into square cells (sorted into cell order). A
 //! search finds a query's nearest point and its clearance: a lower bound on the distance of
 //! every other point, which certifies it. A cold search visits rings of cells outwards until no
 //! unvisited cell can hold a point nearer than the second found; a hinted one (from the
@@ -28,11 +28,11 @@ const MAX_CELLS_PER_POINT: f64 = 8.0;
 /// The bucketed reference points.
 #[derive(Clone, Debug)]
 pub struct GridIndex {
-    xs: Vec<f64>,
-    ys: Vec<f64>,
+    /// The points in cell order, and their indices in the reference.
+    cell_points: Vec<Point2<f64>>,
     ids: Vec<u32>,
-    /// `slots[id]`: where point `id` sits in cell order.
-    slots: Vec<u32>,
+    /// The points in reference order, for the distance to a known point.
+    points: Vec<Point2<f64>>,
     /// `cell_start[c]..cell_start[c + 1]` are the points of cell `c` (row-major).
     cell_start: Vec<u32>,
     x0: f64,
@@ -70,12 +70,11 @@ impl TwoNearest {
 
     #[inline]
     fn offer(&mut self, id: usize, d: f64) {
-        if d < self.d1 || (d == self.d1 && id < self.best) {
-            self.d2 = self.d1;
-            (self.best, self.d1) = (id, d);
-        } else if d < self.d2 {
-            self.d2 = d;
-        }
+        // Written as selects, not branches: which point wins is unpredictable.
+        let nearer = d < self.d1 || (d == self.d1 && id < self.best);
+        self.d2 = if nearer { self.d1 } else { self.d2.min(d) };
+        self.best = if nearer { id } else { self.best };
+        self.d1 = if nearer { d } else { self.d1 };
     }
 
     /// The certificate at `anchor` (a non-finite query finds nothing: index 0 at infinite
@@ -147,22 +146,18 @@ impl Matcher for Grid {
         }
         let mut fill = cell_start.clone();
         let n = reference.len();
-        let (mut xs, mut ys, mut ids, mut slots) =
-            (vec![0.0; n], vec![0.0; n], vec![0u32; n], vec![0u32; n]);
+        let (mut cell_points, mut ids) = (vec![Point2::origin(); n], vec![0u32; n]);
         for (i, p) in reference.iter().enumerate() {
             let slot = &mut fill[cell_of(p)];
             let k = *slot as usize;
-            xs[k] = p.x;
-            ys[k] = p.y;
+            cell_points[k] = *p;
             ids[k] = i as u32; // check_reference bounds the count to u32::MAX
-            slots[i] = k as u32;
             *slot += 1;
         }
         Ok(GridIndex {
-            xs,
-            ys,
+            cell_points,
             ids,
-            slots,
+            points: reference.to_vec(),
             cell_start,
             x0,
             y0,
@@ -190,8 +185,8 @@ impl GridIndex {
     /// Squared distance from `q` to reference point `id`, computed as every matcher does.
     #[inline]
     fn dist_sq(&self, q: &Point2<f64>, id: usize) -> f64 {
-        let k = self.slots[id] as usize;
-        let (dx, dy) = (self.xs[k] - q.x, self.ys[k] - q.y);
+        let p = self.points[id];
+        let (dx, dy) = (p.x - q.x, p.y - q.y);
         dx * dx + dy * dy
     }
 
@@ -210,12 +205,11 @@ impl GridIndex {
                 self.cell_start[row + cx0] as usize,
                 self.cell_start[row + cx1 + 1] as usize,
             );
-            let cells = self.xs[start..end]
+            for (p, &id) in self.cell_points[start..end]
                 .iter()
-                .zip(&self.ys[start..end])
-                .zip(&self.ids[start..end]);
-            for ((x, y), &id) in cells {
-                let (dx, dy) = (x - q.x, y - q.y);
+                .zip(&self.ids[start..end])
+            {
+                let (dx, dy) = (p.x - q.x, p.y - q.y);
                 found.offer(id as usize, dx * dx + dy * dy);
             }
         }
