@@ -1,15 +1,16 @@
 //! Exact nearest neighbour on a uniform grid, with certificates that spare most searches of
 //! an ICP iteration.
 //!
-//! The reference points are bucketed into square cells (sorted into cell order). A
-//! search finds a query's nearest point and its clearance: a lower bound on the distance of
-//! every other point, which certifies it. A cold search visits rings of cells outwards until no
-//! unvisited cell can hold a point nearer than the second found; a hinted one (from the
-//! neighbouring query's or the previous iteration's match) only the cells within the hint's
-//! distance, its clearance bounded by the nearest unvisited cell. Between
-//! ICP iterations a query moves little: while its nearest point plus its drift stays inside the
-//! clearance found at its last search, the nearest point cannot have changed, and the query
-//! costs one distance. Once ICP settles almost every query is answered so.
+//! The reference points are bucketed into square cells (sorted into cell order). A search
+//! finds a query's two nearest points and a clearance: a lower bound on the distance of every
+//! other point. A cold search visits rings of cells outwards until no unvisited cell can hold a
+//! point nearer than the third found; a hinted one (from the neighbouring query's or the
+//! previous iteration's match) only the cells within the hint's distance, its clearance bounded
+//! by the nearest unvisited cell. Between ICP iterations a query moves little: while the nearer
+//! of its two candidates plus its drift stays inside the clearance found at its last search,
+//! no other point can be nearer, and the query costs two distances. Two candidates, not one:
+//! a query between two points of a wall is nearly equidistant from them, and would otherwise
+//! be searched again at every iteration. Once ICP settles almost every query is answered so.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -52,46 +53,73 @@ static NEXT_STAMP: AtomicU64 = AtomicU64::new(1);
 /// (a few ulps): a certified point is nearer than any other by more than rounding can blur.
 const CERTIFICATE_MARGIN: f64 = 1e-9;
 
-/// The nearest point found so far (lowest index among equals) and a lower bound on the squared
-/// distance of every other point (the second-nearest found, or less).
+/// The two points nearest to a query among those offered (ordered by distance, then index)
+/// and a lower bound on the squared distance of every other one offered.
 #[derive(Clone, Copy, Debug)]
-struct TwoNearest {
+struct Nearest {
     best: usize,
     d1: f64,
+    second: usize,
     d2: f64,
+    d3: f64,
 }
 
-impl TwoNearest {
-    const NONE: Self = Self {
-        best: usize::MAX,
+/// No point.
+const NONE: usize = usize::MAX;
+
+/// True when point `a` at squared distance `da` comes before point `b` at `db`.
+#[inline]
+fn precedes(a: usize, da: f64, b: usize, db: f64) -> bool {
+    da < db || (da == db && a < b)
+}
+
+impl Nearest {
+    const EMPTY: Self = Self {
+        best: NONE,
         d1: f64::INFINITY,
+        second: NONE,
         d2: f64::INFINITY,
+        d3: f64::INFINITY,
     };
 
     #[inline]
     fn offer(&mut self, id: usize, d: f64) {
         // Written as selects, not branches: which point wins is unpredictable.
-        let nearer = d < self.d1 || (d == self.d1 && id < self.best);
-        self.d2 = if nearer { self.d1 } else { self.d2.min(d) };
-        self.best = if nearer { id } else { self.best };
-        self.d1 = if nearer { d } else { self.d1 };
+        let first = precedes(id, d, self.best, self.d1);
+        let second = !first && precedes(id, d, self.second, self.d2);
+        self.d3 = if first || second {
+            self.d2
+        } else {
+            self.d3.min(d)
+        };
+        (self.second, self.d2) = if first {
+            (self.best, self.d1)
+        } else if second {
+            (id, d)
+        } else {
+            (self.second, self.d2)
+        };
+        (self.best, self.d1) = if first { (id, d) } else { (self.best, self.d1) };
     }
 
-    /// The certificate at `anchor` (a non-finite query finds nothing: index 0 at infinite
-    /// distance, as from the brute-force search, and no clearance).
-    fn certificate(self, anchor: Point2<f64>) -> Certificate {
-        if self.best == usize::MAX {
+    /// The certificate at `anchor`, every point outside the visited cells being at least
+    /// `outside` away. A non-finite query finds nothing: index 0 at infinite distance, as from
+    /// the brute-force search, and no clearance.
+    fn certificate(self, anchor: Point2<f64>, outside: f64) -> Certificate {
+        if self.best == NONE {
             return Certificate {
                 anchor,
                 clearance: 0.0,
                 best: 0,
+                second: NONE,
                 dist_sq: f64::INFINITY,
             };
         }
         Certificate {
             anchor,
-            clearance: self.d2.sqrt(),
+            clearance: self.d3.sqrt().min(outside),
             best: self.best,
+            second: self.second,
             dist_sq: self.d1,
         }
     }
@@ -197,7 +225,7 @@ impl GridIndex {
         q: &Point2<f64>,
         (cx0, cx1): (usize, usize),
         (cy0, cy1): (usize, usize),
-        found: &mut TwoNearest,
+        found: &mut Nearest,
     ) {
         for cy in cy0..=cy1 {
             let row = cy * self.nx;
@@ -252,18 +280,16 @@ impl GridIndex {
         let r = reach_sq.sqrt();
         let lo = self.cell_xy(&Point2::new(q.x - r, q.y - r));
         let hi = self.cell_xy(&Point2::new(q.x + r, q.y + r));
-        let mut found = TwoNearest::NONE;
+        let mut found = Nearest::EMPTY;
         self.scan_cells(q, (lo.0, hi.0), (lo.1, hi.1), &mut found);
-        let outside = self.outside_bound(q, (lo.0, hi.0), (lo.1, hi.1));
-        found.d2 = found.d2.min(outside * outside);
-        found.certificate(*q)
+        found.certificate(*q, self.outside_bound(q, (lo.0, hi.0), (lo.1, hi.1)))
     }
 
     /// The two nearest points to `q` without a hint: rings of cells around `q`'s (clamped) cell
     /// until no unvisited cell can hold a point nearer than the second found.
     fn search_rings(&self, q: &Point2<f64>) -> Certificate {
         let (cx, cy) = self.cell_xy(q);
-        let mut found = TwoNearest::NONE;
+        let mut found = Nearest::EMPTY;
         for k in 0.. {
             let (x_lo, x_hi) = (cx.saturating_sub(k), (cx + k).min(self.nx - 1));
             let (y_lo, y_hi) = (cy.saturating_sub(k), (cy + k).min(self.ny - 1));
@@ -288,11 +314,11 @@ impl GridIndex {
             // Every unvisited point lies beyond a side of the visited square that the grid
             // extends past.
             let bound = self.outside_bound(q, (x_lo, x_hi), (y_lo, y_hi));
-            if bound == f64::INFINITY || found.d2 <= bound * bound {
-                break;
+            if bound == f64::INFINITY || found.d3 <= bound * bound {
+                return found.certificate(*q, bound);
             }
         }
-        found.certificate(*q)
+        unreachable!("the rings end once they cover the grid")
     }
 }
 
@@ -310,12 +336,22 @@ impl NearestIndex for GridIndex {
         let certificates = &mut out.certificates;
         if out.owner == self.stamp && certificates.len() == moved_src.len() {
             for (c, q) in certificates.iter_mut().zip(moved_src) {
-                let dist_sq = self.dist_sq(q, c.best);
+                let (mut best, mut dist_sq) = (c.best, self.dist_sq(q, c.best));
+                if c.second != NONE {
+                    let d = self.dist_sq(q, c.second);
+                    if precedes(c.second, d, best, dist_sq) {
+                        (best, dist_sq) = (c.second, d);
+                    }
+                }
                 let drift = (q - c.anchor).norm();
                 if dist_sq.sqrt() + drift < c.clearance * (1.0 - CERTIFICATE_MARGIN) {
+                    // The same two candidates, the nearer first.
+                    if best != c.best {
+                        (c.best, c.second) = (best, c.best);
+                    }
                     c.dist_sq = dist_sq;
                 } else {
-                    *c = self.search_from(q, c.best);
+                    *c = self.search_from(q, best);
                 }
             }
         } else {

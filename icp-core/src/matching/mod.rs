@@ -44,15 +44,16 @@ pub struct Matches {
     owner: u64,
 }
 
-/// At `anchor`, reference point `best` was the unique nearest and every other reference point
-/// was at least `clearance` away. Then for a query `q` at `drift = |q − anchor|`, every other
-/// point is at least `clearance − drift` from `q` (triangle inequality), so `best` is still the
-/// unique nearest while `|q − best| + drift < clearance`.
+/// At `anchor`, every reference point other than `best` and `second` (the two nearest) was at
+/// least `clearance` away. For a query `q` at `drift = |q − anchor|` those points are at least
+/// `clearance − drift` from `q` (triangle inequality), so while the nearer of the two is nearer
+/// than that, it is the nearest point. `best`/`dist_sq` are the last answer.
 #[derive(Clone, Copy, Debug)]
 struct Certificate {
     anchor: Point2<f64>,
     clearance: f64,
     best: usize,
+    second: usize,
     dist_sq: f64,
 }
 
