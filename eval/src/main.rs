@@ -426,11 +426,8 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     };
     let rows = compare(&report, &options);
     let md = compare_md(&report, &rows, &options);
-    let json = serde_json::to_string_pretty(
-        &serde_json::json!({ "options": options, "comparisons": rows }),
-    )? + "\n";
-    eval::output::write_atomic(&run.out.join("compare.md"), md.as_bytes())?;
-    eval::output::write_atomic(&run.out.join("compare.json"), json.as_bytes())?;
+    let json = serde_json::json!({ "options": options, "comparisons": rows });
+    write_md_json(&run.out, "compare", &md, &json)?;
     println!("{md}");
     if let Some(text) = &args.sweep {
         let (param, values) = eval::sweep::parse_sweep(text)
@@ -441,11 +438,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
             eval::sweep::sweep(&ds, &variants, param, &values, &bar)
         })??;
         let md = eval::sweep::sweep_md(&result);
-        eval::output::write_atomic(&run.out.join("sweep.md"), md.as_bytes())?;
-        eval::output::write_atomic(
-            &run.out.join("sweep.json"),
-            (serde_json::to_string_pretty(&result)? + "\n").as_bytes(),
-        )?;
+        write_md_json(&run.out, "sweep", &md, &result)?;
         if !run.common.no_plots {
             eval::plots::write_sweep(&run.out, &result)?;
         }
@@ -518,6 +511,14 @@ fn synth(args: SynthArgs) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Writes `<stem>.md` and `<stem>.json` (pretty, newline-terminated) into `dir`, atomically.
+fn write_md_json(dir: &Path, stem: &str, md: &str, value: &impl serde::Serialize) -> Result<()> {
+    eval::output::write_atomic(&dir.join(format!("{stem}.md")), md.as_bytes())?;
+    let json = serde_json::to_string_pretty(value)? + "\n";
+    eval::output::write_atomic(&dir.join(format!("{stem}.json")), json.as_bytes())?;
+    Ok(())
+}
+
 fn scaling(args: ScalingArgs) -> Result<ExitCode> {
     let spec = builtin(&args.variant, &VariantConfig::default()).with_context(|| {
         let known = builtin_names().collect::<Vec<_>>().join(", ");
@@ -530,11 +531,7 @@ fn scaling(args: ScalingArgs) -> Result<ExitCode> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let md = eval::scaling::scaling_md(&result);
-    eval::output::write_atomic(&args.out.join("scaling.md"), md.as_bytes())?;
-    eval::output::write_atomic(
-        &args.out.join("scaling.json"),
-        (serde_json::to_string_pretty(&result)? + "\n").as_bytes(),
-    )?;
+    write_md_json(&args.out, "scaling", &md, &result)?;
     eval::plots::write_scaling(&args.out, &result)?;
     print!("{md}");
     Ok(ExitCode::SUCCESS)
