@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
-use icp_core::{IcpError, Registrar, Registration};
+use icp_core::{IcpError, Registrar, Registration, Workspace};
 use indicatif::ProgressBar;
 use nalgebra::Isometry2;
 use rayon::prelude::*;
@@ -29,10 +29,13 @@ pub fn run_all(
     let n_pairs = pairs.len();
     let flat: Vec<PairRun> = (0..registrars.len() * n_pairs)
         .into_par_iter()
-        .map(|i| {
+        // One workspace per rayon job: buffers are reused across the pairs a thread runs
+        // (results never depend on what a workspace held before).
+        .map_init(Workspace::default, |workspace, i| {
             let (reg, pair) = (&registrars[i / n_pairs], pairs[i % n_pairs]);
             let start = Instant::now();
-            let result = reg.register(
+            let result = reg.register_in(
+                workspace,
                 &ds.scans[pair.source],
                 &ds.scans[pair.reference],
                 Isometry2::identity(),

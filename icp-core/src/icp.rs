@@ -193,17 +193,49 @@ fn overlap(moved: &[Point2<f64>], dst: &[Point2<f64>], pairs: &[Correspondence])
     forward.min(backward)
 }
 
+/// The buffers of a registration. Passing one workspace to successive registrations (one per
+/// thread) reuses them: after the first, a registration allocates only for its
+/// nearest-neighbour index and the overlap check. What it holds between calls never changes a
+/// result.
+#[derive(Clone, Debug, Default)]
+pub struct Workspace {
+    src_idx: Vec<usize>,
+    ref_idx: Vec<usize>,
+    src: Vec<Return>,
+    dst: Vec<Return>,
+    src_pts: Vec<Point2<f64>>,
+    dst_pts: Vec<Point2<f64>>,
+    moved: Vec<Point2<f64>>,
+    matches: Matches,
+    weights: Vec<f64>,
+    dists: Vec<f64>,
+    scratch: Vec<f64>,
+}
+
 /// A registration method: estimates `t_ref_src` from two scans and an initial guess.
 pub trait Registrar: Send + Sync {
     /// A short name, e.g. `HD_ICP`.
     fn name(&self) -> &str;
-    /// Registers `source` (scan k) onto `reference` (scan k+1), starting from `init`.
+
+    /// Registers `source` (scan k) onto `reference` (scan k+1), starting from `init`, in the
+    /// buffers of `workspace`.
+    fn register_in(
+        &self,
+        workspace: &mut Workspace,
+        source: &Scan,
+        reference: &Scan,
+        init: Isometry2<f64>,
+    ) -> Result<Registration, IcpError>;
+
+    /// Registers `source` onto `reference` with buffers of its own.
     fn register(
         &self,
         source: &Scan,
         reference: &Scan,
         init: Isometry2<f64>,
-    ) -> Result<Registration, IcpError>;
+    ) -> Result<Registration, IcpError> {
+        self.register_in(&mut Workspace::default(), source, reference, init)
+    }
 }
 
 /// Point-to-point ICP as a chain of stages (Algorithm 1): selection `S`, matching `M`, pair
@@ -292,8 +324,9 @@ where
         &self.name
     }
 
-    fn register(
+    fn register_in(
         &self,
+        workspace: &mut Workspace,
         source: &Scan,
         reference: &Scan,
         init: Isometry2<f64>,
@@ -320,34 +353,55 @@ where
                 });
             }
         }
+        let Workspace {
+            src_idx,
+            ref_idx,
+            src,
+            dst,
+            src_pts,
+            dst_pts,
+            moved,
+            matches,
+            weights,
+            dists,
+            scratch,
+        } = workspace;
         // Alg. 1 step 1: selection; the chosen points are gathered once, before the loop.
-        let (mut src_idx, mut ref_idx) = (Vec::new(), Vec::new());
         self.selection
-            .select(source.len(), reference.len(), &mut src_idx, &mut ref_idx);
-        let src: Vec<Return> = src_idx.iter().map(|&i| source.returns()[i]).collect();
-        let dst: Vec<Return> = ref_idx.iter().map(|&i| reference.returns()[i]).collect();
-        let src_pts: Vec<Point2<f64>> = src.iter().map(|r| r.point).collect();
-        let dst_pts: Vec<Point2<f64>> = dst.iter().map(|r| r.point).collect();
+            .select(source.len(), reference.len(), src_idx, ref_idx);
+        let gather = |idx: &[usize], scan: &Scan, out: &mut Vec<Return>| {
+            out.clear();
+            out.extend(idx.iter().map(|&i| scan.returns()[i]));
+        };
+        gather(src_idx, source, src);
+        gather(ref_idx, reference, dst);
+        for (returns, points) in [(&*src, &mut *src_pts), (&*dst, &mut *dst_pts)] {
+            points.clear();
+            points.extend(returns.iter().map(|r| r.point));
+        }
         check_geometry(src_pts.iter(), ScanRole::Source)?;
         check_geometry(dst_pts.iter(), ScanRole::Reference)?;
-        let index = self.matcher.build(&dst_pts)?;
+        let index = self.matcher.build(dst_pts)?;
 
-        // Buffers reused by every iteration: nothing is allocated inside the loop.
-        let mut moved = src_pts.clone();
-        let mut matches = Matches::with_capacity(src.len());
-        let mut weights = Vec::with_capacity(src.len());
-        let mut dists = Vec::with_capacity(src.len());
-        let mut scratch = Vec::with_capacity(src.len());
+        // Every buffer the loop writes is sized here: nothing is allocated inside the loop.
+        let n = src.len();
+        moved.clone_from(src_pts);
+        matches.clear();
+        matches.reserve(n);
+        for buffer in [&mut *weights, &mut *dists, &mut *scratch] {
+            buffer.clear();
+            buffer.reserve(n);
+        }
 
         let mut t_ref_src = init;
         let mut previous_mean: Option<f64> = None;
         let mut last_weight_sum = 0.0;
         let mut iterations = 0;
         let (stop, mean_dist_m) = loop {
-            for (m, p) in moved.iter_mut().zip(&src_pts) {
+            for (m, p) in moved.iter_mut().zip(src_pts.iter()) {
                 *m = t_ref_src * p; // eqs. 21, 22: the accumulated transform applied to scan k
             }
-            index.match_all(&moved, &mut matches); // Alg. 1 step 2
+            index.match_all(moved, matches); // Alg. 1 step 2
             let pairs = &matches.pairs;
             dists.clear();
             dists.extend(pairs.iter().map(|p| p.dist_sq.sqrt()));
@@ -363,16 +417,16 @@ where
             // Alg. 1 step 3, eqs. 11–13: the scheme's weight of each pair.
             let batch = PairBatch {
                 pairs,
-                src: &src,
-                dst: &dst,
-                src_moved: &moved,
+                src,
+                dst,
+                src_moved: moved,
                 rotation_ref_src: t_ref_src.rotation,
             };
-            self.weighting.weigh_all(&batch, &mut weights);
+            self.weighting.weigh_all(&batch, weights);
             // Alg. 1 step 4: the robust factor (Huber), from the pair distances.
-            self.robust.reweight(&dists, &mut weights, &mut scratch);
+            self.robust.reweight(dists, weights, scratch);
             // Alg. 1 step 5, eqs. 15–20: the increment, then eqs. 21, 22: accumulate it.
-            let increment = self.minimizer.solve(&moved, &dst_pts, pairs, &weights)?;
+            let increment = self.minimizer.solve(moved, dst_pts, pairs, weights)?;
             last_weight_sum = weights.iter().sum();
             t_ref_src = increment * t_ref_src;
             iterations += 1;
@@ -385,8 +439,8 @@ where
             n_pairs: matches.pairs.len(),
             weight_sum: last_weight_sum,
             mean_dist_m,
-            conditioning: conditioning(&moved, &dst_pts, &matches.pairs),
-            overlap: overlap(&moved, &dst_pts, &matches.pairs),
+            conditioning: conditioning(moved, dst_pts, &matches.pairs),
+            overlap: overlap(moved, dst_pts, &matches.pairs),
         })
     }
 }

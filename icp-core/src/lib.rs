@@ -59,7 +59,7 @@ pub use error::IcpError;
 #[cfg(doctest)]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;
-pub use icp::{Conditioning, Icp, Registrar, Registration};
+pub use icp::{Conditioning, Icp, Registrar, Registration, Workspace};
 pub use motion::{BearingSense, MovementParams};
 pub use scan::Scan;
 pub use sensor::SensorModel;

@@ -1,9 +1,10 @@
 //! Nothing is allocated inside the ICP iteration loop: a registration allocates its buffers
-//! once, so its allocation count does not grow with the number of iterations. Counted by
-//! `allocation-counter`'s counting global allocator (this test binary only).
+//! once, so its allocation count does not grow with the number of iterations; and a workspace
+//! passed from one registration to the next keeps them. Counted by `allocation-counter`'s
+//! counting global allocator (this test binary only).
 
 use icp_core::variants::{builtin, builtin_names, VariantConfig};
-use icp_core::{Scan, Termination};
+use icp_core::{Scan, Termination, Workspace};
 use nalgebra::{Isometry2, Point2, Vector2};
 
 /// Three walls with a bump, seen from the origin, and the same after a small motion.
@@ -62,5 +63,35 @@ fn allocations_do_not_grow_with_iterations() {
             "{name}: allocations after 1 and {} iterations",
             many.0
         );
+    }
+}
+
+#[test]
+fn a_reused_workspace_keeps_the_buffers() {
+    let (source, reference) = pair();
+    for name in builtin_names() {
+        let reg = builtin(name, &VariantConfig::default())
+            .unwrap()
+            .build()
+            .unwrap();
+        let count = |workspace: &mut Workspace| {
+            let mut out = None;
+            let info = allocation_counter::measure(|| {
+                out = Some(reg.register_in(workspace, &source, &reference, Isometry2::identity()));
+            });
+            (info.count_total, out.unwrap().unwrap())
+        };
+        let (fresh, first) = count(&mut Workspace::default());
+        let mut workspace = Workspace::default();
+        count(&mut workspace);
+        let (warm, again) = count(&mut workspace);
+        assert_eq!(again, first, "{name}: a used workspace changes nothing");
+        // What remains: the grid index (5 arrays), the overlap check's grid (5) and its
+        // bookkeeping (5); everything else is the workspace's.
+        assert_eq!(
+            warm, 15,
+            "{name}: {warm} allocations with a warm workspace, {fresh} without"
+        );
+        assert!(fresh > warm + 10, "{name}: {fresh} vs {warm}");
     }
 }

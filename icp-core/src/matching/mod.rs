@@ -67,6 +67,12 @@ impl Matches {
         }
     }
 
+    /// Makes room for `n` queries.
+    pub fn reserve(&mut self, n: usize) {
+        self.pairs.reserve(n);
+        self.certificates.reserve(n);
+    }
+
     /// Forgets the pairs and what the index remembered (keeping the capacity): the next call
     /// searches every query afresh.
     pub fn clear(&mut self) {
