@@ -179,6 +179,15 @@ pub fn parse<R: Read>(
         });
         counts.scans += 1;
     }
+    if scans.is_empty() {
+        return Err(DatasetError::BadValue {
+            path: path.to_path_buf(),
+            what: format!(
+                "no FLASER line in {} lines: not a CARMEN laser log",
+                counts.skipped_lines
+            ),
+        });
+    }
     let mut dts: Vec<f64> = scans
         .windows(2)
         .filter_map(|w| Some(w[1].timestamp_s()? - w[0].timestamp_s()?))

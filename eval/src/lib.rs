@@ -48,6 +48,9 @@ pub enum EvalError {
     /// A variant could not be built.
     #[error(transparent)]
     Icp(#[from] IcpError),
+    /// The dataset has no pair of consecutive scans at all.
+    #[error("{dataset} has {scans} scan(s): no pair of consecutive scans to register")]
+    NothingToRegister { dataset: String, scans: usize },
 }
 
 /// Runs every variant of `setup` over every consecutive pair of `ds` and builds the report.
@@ -57,6 +60,12 @@ pub fn evaluate(
     progress: &ProgressBar,
 ) -> Result<RunReport, EvalError> {
     let (pairs, skipped) = ds.consecutive_pairs();
+    if pairs.is_empty() && skipped.is_empty() {
+        return Err(EvalError::NothingToRegister {
+            dataset: ds.provenance.name.clone(),
+            scans: ds.scans.len(),
+        });
+    }
     let registrars = setup
         .variants
         .iter()

@@ -29,10 +29,12 @@ fn error_of<T: std::fmt::Debug, E: Display>(r: Result<T, E>) -> String {
 
 // ---- The marina MATLAB loader -------------------------------------------------------------
 
-/// A small well-formed file set (4 beams × 3 scans) with `ranges.mat` replaced.
-fn marina_with_ranges(ranges: &[u8]) -> Result<datasets::Dataset, datasets::DatasetError> {
+/// A small well-formed file set (4 beams × 3 scans) with `ranges.mat` and the poses given.
+fn marina_files(
+    ranges: &[u8],
+    pose: &[f64; 9],
+) -> Result<datasets::Dataset, datasets::DatasetError> {
     let angles: Vec<f64> = (0..12).map(|i| (i % 4) as f64 * 0.5).collect();
-    let pose = [0.0, 1.0, 2.0, 0.0, 0.1, 0.2, 0.0, 0.0, 0.0];
     marina::parse(
         [
             (
@@ -42,11 +44,16 @@ fn marina_with_ranges(ranges: &[u8]) -> Result<datasets::Dataset, datasets::Data
             (Path::new("ranges.mat"), ranges),
             (
                 Path::new("gps.mat"),
-                &write_doubles(&[("slam_pose", 3, 3, &pose)]).unwrap()[..],
+                &write_doubles(&[("slam_pose", 3, 3, pose)]).unwrap()[..],
             ),
         ],
         &MarinaOptions::default(),
     )
+}
+
+/// The small file set with `ranges.mat` replaced.
+fn marina_with_ranges(ranges: &[u8]) -> Result<datasets::Dataset, datasets::DatasetError> {
+    marina_files(ranges, &[0.0, 1.0, 2.0, 0.0, 0.1, 0.2, 0.0, 0.0, 0.0])
 }
 
 fn ranges_mat(values: &[f64; 12]) -> Vec<u8> {
@@ -120,6 +127,31 @@ fn marina_infinite_range() {
     );
 }
 
+#[test]
+fn marina_non_numeric_variable() {
+    // The 4 x 3 matrix rewritten as MATLAB int8 (class 8, data type 1): 12 bytes of data.
+    let mut bytes = ranges_mat(&GOOD_RANGES);
+    bytes[132..136].copy_from_slice(&80u32.to_le_bytes()); // the matrix element's size
+    bytes[144] = 8; // array class: int8
+    bytes[192..200].copy_from_slice(&[1, 0, 0, 0, 12, 0, 0, 0]); // data: int8 x 12
+    bytes.truncate(200);
+    bytes.extend([5, 6, 7, 8, 5, 6, 7, 8, 5, 6, 7, 8, 0, 0, 0, 0]);
+    assert_eq!(
+        error_of(marina_with_ranges(&bytes)),
+        "variable \"ranges_baza\" in ranges.mat is not a real double matrix"
+    );
+}
+
+#[test]
+fn marina_nan_pose() {
+    let pose = [0.0, 1.0, f64::NAN, 0.0, 0.1, 0.2, 0.0, 0.0, 0.0];
+    let r = marina_files(&ranges_mat(&GOOD_RANGES), &pose);
+    assert_eq!(
+        error_of(r),
+        "gps.mat: non-finite reference pose in row 2: (NaN, 0.2, 0)"
+    );
+}
+
 /// NaN (and 0) is the files' own no-return marker: dropped and counted, not an error.
 #[test]
 fn marina_nan_range_is_a_counted_no_return() {
@@ -138,6 +170,14 @@ fn carmen_log(text: &str) -> String {
         text.as_bytes(),
         &CarmenOptions::default(),
     ))
+}
+
+#[test]
+fn carmen_empty_file() {
+    assert_eq!(
+        carmen_log("# a log without laser lines\n"),
+        "robot.log: no FLASER line in 1 lines: not a CARMEN laser log"
+    );
 }
 
 #[test]
@@ -171,6 +211,14 @@ fn csv_scans(text: &str) -> String {
         &DatasetMeta::default(),
         "test",
     ))
+}
+
+#[test]
+fn csv_empty_file() {
+    assert_eq!(
+        csv_scans(""),
+        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad)"
+    );
 }
 
 #[test]
@@ -372,6 +420,28 @@ fn harness_skips_and_counts_a_pair_with_an_empty_scan() {
         .collect();
     assert_eq!(skipped, vec!["scan 2 has 0 valid returns (< 3)"; 2]);
     assert_eq!(report.variants[0].pairs_ok, 2);
+}
+
+#[test]
+fn harness_refuses_a_dataset_without_pairs() {
+    let one_scan = csvdir::parse(
+        (
+            Path::new("scans.csv"),
+            "scan,timestamp_s,range_m,bearing_rad\n0,0.0,5,0\n0,0.0,6,1\n0,0.0,7,2\n".as_bytes(),
+        ),
+        None,
+        &DatasetMeta::default(),
+        "one-scan",
+    )
+    .unwrap();
+    let setup = EvalSetup {
+        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
+        offset: OffsetChoice::Fixed(0),
+    };
+    assert_eq!(
+        error_of(evaluate(&one_scan, &setup, &ProgressBar::hidden()).map(|r| r.dataset.pairs)),
+        "one-scan has 1 scan(s): no pair of consecutive scans to register"
+    );
 }
 
 #[test]
