@@ -328,7 +328,8 @@ impl NearestIndex for GridIndex {
         (c.best, c.dist_sq)
     }
 
-    /// A query keeps its nearest point while its certificate holds (one distance); otherwise,
+    /// A query keeps the nearer of its two candidates while its certificate holds (two
+    /// distances); otherwise,
     /// and for a first call, it is searched from a hint: its previous nearest point, or at a
     /// first call the previous query's (consecutive returns of a scan are neighbours, and so
     /// are their nearest reference points).
