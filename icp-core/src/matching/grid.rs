@@ -329,10 +329,9 @@ impl NearestIndex for GridIndex {
     }
 
     /// A query keeps the nearer of its two candidates while its certificate holds (two
-    /// distances); otherwise,
-    /// and for a first call, it is searched from a hint: its previous nearest point, or at a
-    /// first call the previous query's (consecutive returns of a scan are neighbours, and so
-    /// are their nearest reference points).
+    /// distances); otherwise, and at a first call, it is searched from a hint: that candidate,
+    /// or at a first call the previous query's answer (consecutive returns of a scan are
+    /// neighbours, and so are their nearest reference points).
     fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Matches) {
         let certificates = &mut out.certificates;
         if out.owner == self.stamp && certificates.len() == moved_src.len() {
