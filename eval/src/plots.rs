@@ -508,6 +508,29 @@ pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), Eva
     save_pair(dir, "map", &png, &svg)
 }
 
+/// A labelled line through `pts` with a dot on each point.
+fn dotted_line<DB, X, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    pts: &[(f64, f64)],
+    color: RGBColor,
+    label: &str,
+) -> Result<(), String>
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    chart
+        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
+        .map_err(err)?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    chart
+        .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
+        .map_err(err)?;
+    Ok(())
+}
+
 struct SweepFigure<'a> {
     result: &'a crate::sweep::SweepResult,
 }
@@ -604,17 +627,7 @@ impl Figure for SweepFigure<'_> {
                     .map_err(err)?;
                 for (i, v) in shown {
                     let color = COLORS[i % COLORS.len()];
-                    let pts = values(v, *get);
-                    chart
-                        .draw_series(LineSeries::new(pts.iter().copied(), color.stroke_width(2)))
-                        .map_err(err)?
-                        .label(v)
-                        .legend(move |(x, y)| {
-                            PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                        });
-                    chart
-                        .draw_series(pts.iter().map(|&p| Circle::new(p, 4, color.filled())))
-                        .map_err(err)?;
+                    dotted_line(&mut chart, &values(v, *get), color, v)?;
                 }
                 chart
                     .configure_series_labels()
@@ -710,17 +723,7 @@ impl Figure for ScalingFigure<'_> {
                 .map_err(err)?;
             for (name, color, get) in &series {
                 let xy: Vec<(f64, f64)> = pts.iter().map(|p| (n(p), get(p))).collect();
-                let color = *color;
-                chart
-                    .draw_series(LineSeries::new(xy.iter().copied(), color.stroke_width(2)))
-                    .map_err(err)?
-                    .label(*name)
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                    });
-                chart
-                    .draw_series(xy.iter().map(|&p| Circle::new(p, 4, color.filled())))
-                    .map_err(err)?;
+                dotted_line(&mut chart, &xy, *color, name)?;
             }
             if i == 0 {
                 let xs = (0..=40).map(|k| xr.start * (xr.end / xr.start).powf(k as f64 / 40.0));
