@@ -9,11 +9,11 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 use crate::reference::{self, FlaggedStep, OffsetEstimate};
-use crate::runner::PairRun;
+use crate::runner::{PairRun, Runs};
 use crate::stats::{median_p95, Stats};
 
 /// Version of the `summary.json` layout; bump it when a field changes meaning or goes away.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// How the reference is aligned in time with the scans.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -96,7 +96,8 @@ pub struct PairRecord {
     pub overlap: Option<f64>,
     /// False when the reference step is flagged as implausible (or absent).
     pub ref_plausible: bool,
-    /// Wall time of the registration, µs (not reproducible; last column so checks can drop it).
+    /// Wall time of the registration after its pair's shared preparation, µs (not
+    /// reproducible; last column so checks can drop it).
     pub time_us: f64,
 }
 
@@ -245,6 +246,10 @@ pub struct RunReport {
     pub reference: ReferenceInfo,
     /// One summary per variant, in run order.
     pub variants: Vec<VariantSummary>,
+    /// Wall time per pair of the work its variants share (selection, reference index and first
+    /// matching), done once before their registrations; each variant's `timing` leaves it out.
+    #[serde(default)]
+    pub preparation: Option<Timing>,
     /// One record per variant and pair (written to `pairs.csv`, not to `summary.json`).
     #[serde(skip)]
     pub pairs: Vec<PairRecord>,
@@ -262,14 +267,15 @@ pub struct EvalSetup {
     pub offset: OffsetChoice,
 }
 
-/// Builds the report from the runs (`runs[variant][pair]`).
+/// Builds the report from the runs.
 pub fn build(
     ds: &Dataset,
     pairs: &[ScanPair],
     skipped: Vec<SkippedPair>,
     setup: &EvalSetup,
-    runs: &[Vec<PairRun>],
+    all_runs: &Runs,
 ) -> RunReport {
+    let runs = &all_runs.per_variant;
     let dts: Vec<f64> = pairs.iter().map(|p| ds.pair_dt_s(*p)).collect();
     let estimates: Vec<Vec<Option<MovementParams>>> = runs
         .iter()
@@ -404,6 +410,8 @@ pub fn build(
             flagged_pairs: flagged,
         },
         variants: summaries,
+        preparation: median_p95(&all_runs.prepare_us)
+            .map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         pairs: records,
         trajectories,
     }

@@ -1,6 +1,8 @@
 //! The ICP loop (Naus & Marchel 2019, Algorithm 1 and eqs. 14, 21, 22) and the
 //! [`Registrar`] trait every registration method implements.
 
+use std::any::Any;
+
 use nalgebra::{Isometry2, Matrix3, Point2, SymmetricEigen, Vector2, Vector3};
 
 use crate::error::ScanRole;
@@ -195,9 +197,12 @@ fn overlap(moved: &[Point2<f64>], dst: &[Point2<f64>], pairs: &[Correspondence])
 
 /// The buffers of a registration. Passing one workspace to successive registrations (one per
 /// thread) reuses them: after the first, a registration allocates only for its
-/// nearest-neighbour index and the overlap check. What it holds between calls never changes a
-/// result.
-#[derive(Clone, Debug, Default)]
+/// nearest-neighbour index and the overlap check. It also keeps the last reference index and
+/// the first matching made with it: a registration with an equal matcher, the same selected
+/// reference points and the same first queries (another variant of the same pair, or after
+/// [`Registrar::prepare_in`]) takes them instead of building and searching again. What it
+/// holds between calls never changes a result.
+#[derive(Debug, Default)]
 pub struct Workspace {
     src_idx: Vec<usize>,
     ref_idx: Vec<usize>,
@@ -210,6 +215,20 @@ pub struct Workspace {
     weights: Vec<f64>,
     dists: Vec<f64>,
     scratch: Vec<f64>,
+    /// A [`SharedReference`] of the matcher type that wrote it.
+    shared: Option<Box<dyn Any + Send + Sync>>,
+}
+
+/// A reference index and the first matching made with it, kept by a [`Workspace`] for the
+/// next registration that can use them.
+struct SharedReference<M: Matcher> {
+    /// The matcher that built `index`, from the points `reference`.
+    matcher: M,
+    reference: Vec<Point2<f64>>,
+    index: Option<M::Index>,
+    /// The queries of the first matching made with `index` (empty: none yet), and its result.
+    queries: Vec<Point2<f64>>,
+    first: Matches,
 }
 
 /// A registration method: estimates `t_ref_src` from two scans and an initial guess.
@@ -226,6 +245,22 @@ pub trait Registrar: Send + Sync {
         reference: &Scan,
         init: Isometry2<f64>,
     ) -> Result<Registration, IcpError>;
+
+    /// Does in `workspace` what every registration of `source` onto `reference` from `init`
+    /// begins with (with this method's selection and matcher): the reference index and the
+    /// first matching, which [`Registrar::register_in`] then takes from the workspace instead of
+    /// redoing. Needed by no one: it lets a caller time that shared work apart from the
+    /// registrations of several variants of one pair. The default does nothing.
+    fn prepare_in(
+        &self,
+        workspace: &mut Workspace,
+        source: &Scan,
+        reference: &Scan,
+        init: Isometry2<f64>,
+    ) -> Result<(), IcpError> {
+        let _ = (workspace, source, reference, init);
+        Ok(())
+    }
 
     /// Registers `source` onto `reference` with buffers of its own.
     fn register(
@@ -312,25 +347,21 @@ impl<S, M, W, K, X> Icp<S, M, W, K, X> {
     }
 }
 
-impl<S, M, W, K, X> Registrar for Icp<S, M, W, K, X>
+impl<S, M, W, K, X> Icp<S, M, W, K, X>
 where
     S: Selection,
-    M: Matcher,
-    W: PairWeighting,
-    K: RobustKernel,
-    X: Minimizer,
+    M: Matcher + PartialEq + Clone + 'static,
 {
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn register_in(
+    /// Alg. 1 step 1 and the first matching of step 2, from `init`: fills the workspace's
+    /// points and matches, and returns the shared reference holding the index (taken from
+    /// the workspace when it fits, built otherwise; the caller puts it back).
+    fn prepare(
         &self,
         workspace: &mut Workspace,
         source: &Scan,
         reference: &Scan,
         init: Isometry2<f64>,
-    ) -> Result<Registration, IcpError> {
+    ) -> Result<Box<SharedReference<M>>, IcpError> {
         self.termination.validate()?;
         for (name, value) in [
             ("init.translation", init.translation.vector.norm()),
@@ -362,9 +393,8 @@ where
             dst_pts,
             moved,
             matches,
-            weights,
-            dists,
-            scratch,
+            shared,
+            ..
         } = workspace;
         // Alg. 1 step 1: selection; the chosen points are gathered once, before the loop.
         self.selection
@@ -381,27 +411,112 @@ where
         }
         check_geometry(src_pts.iter(), ScanRole::Source)?;
         check_geometry(dst_pts.iter(), ScanRole::Reference)?;
-        let index = self.matcher.build(dst_pts)?;
+
+        let mut shared = shared
+            .take()
+            .and_then(|any| any.downcast::<SharedReference<M>>().ok())
+            .unwrap_or_else(|| {
+                Box::new(SharedReference {
+                    matcher: self.matcher.clone(),
+                    reference: Vec::new(),
+                    index: None,
+                    queries: Vec::new(),
+                    first: Matches::default(),
+                })
+            });
+        let SharedReference {
+            matcher,
+            reference: built_from,
+            index,
+            queries,
+            first,
+        } = &mut *shared;
+        if *matcher != self.matcher || built_from != dst_pts {
+            *matcher = self.matcher.clone();
+            built_from.clone_from(dst_pts);
+            *index = None;
+            queries.clear();
+        }
+        let index = match index {
+            Some(index) => &*index,
+            empty @ None => &*empty.insert(self.matcher.build(dst_pts)?),
+        };
 
         // Every buffer the loop writes is sized here: nothing is allocated inside the loop.
         let n = src.len();
-        moved.clone_from(src_pts);
+        moved.clear();
+        moved.extend(src_pts.iter().map(|p| init * p)); // eqs. 21, 22 at the start
         matches.clear();
         matches.reserve(n);
+        if !queries.is_empty() && queries == moved {
+            matches.copy_from(first);
+        } else {
+            index.match_all(moved, matches); // Alg. 1 step 2, first time
+            queries.clone_from(moved);
+            first.copy_from(matches);
+        }
+        Ok(shared)
+    }
+}
+
+impl<S, M, W, K, X> Registrar for Icp<S, M, W, K, X>
+where
+    S: Selection,
+    M: Matcher + PartialEq + Clone + 'static,
+    W: PairWeighting,
+    K: RobustKernel,
+    X: Minimizer,
+{
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn prepare_in(
+        &self,
+        workspace: &mut Workspace,
+        source: &Scan,
+        reference: &Scan,
+        init: Isometry2<f64>,
+    ) -> Result<(), IcpError> {
+        let shared = self.prepare(workspace, source, reference, init)?;
+        workspace.shared = Some(shared);
+        Ok(())
+    }
+
+    fn register_in(
+        &self,
+        workspace: &mut Workspace,
+        source: &Scan,
+        reference: &Scan,
+        init: Isometry2<f64>,
+    ) -> Result<Registration, IcpError> {
+        let shared = self.prepare(workspace, source, reference, init)?;
+        let Some(index) = &shared.index else {
+            unreachable!("prepare returns a built index")
+        };
+        let Workspace {
+            src,
+            dst,
+            src_pts,
+            dst_pts,
+            moved,
+            matches,
+            weights,
+            dists,
+            scratch,
+            ..
+        } = &mut *workspace;
         for buffer in [&mut *weights, &mut *dists, &mut *scratch] {
             buffer.clear();
-            buffer.reserve(n);
+            buffer.reserve(src.len());
         }
 
+        // `moved` and `matches` hold the first matching, at `init`.
         let mut t_ref_src = init;
         let mut previous_mean: Option<f64> = None;
         let mut last_weight_sum = 0.0;
         let mut iterations = 0;
         let (stop, mean_dist_m) = loop {
-            for (m, p) in moved.iter_mut().zip(src_pts.iter()) {
-                *m = t_ref_src * p; // eqs. 21, 22: the accumulated transform applied to scan k
-            }
-            index.match_all(moved, matches); // Alg. 1 step 2
             let pairs = &matches.pairs;
             dists.clear();
             dists.extend(pairs.iter().map(|p| p.dist_sq.sqrt()));
@@ -431,8 +546,12 @@ where
             t_ref_src = increment * t_ref_src;
             iterations += 1;
             previous_mean = Some(mean);
+            for (m, p) in moved.iter_mut().zip(src_pts.iter()) {
+                *m = t_ref_src * p; // eqs. 21, 22: the accumulated transform applied to scan k
+            }
+            index.match_all(moved, matches); // Alg. 1 step 2
         };
-        Ok(Registration {
+        let registration = Registration {
             t_ref_src,
             iterations,
             stop,
@@ -441,6 +560,8 @@ where
             mean_dist_m,
             conditioning: conditioning(moved, dst_pts, &matches.pairs),
             overlap: overlap(moved, dst_pts, &matches.pairs),
-        })
+        };
+        workspace.shared = Some(shared);
+        Ok(registration)
     }
 }

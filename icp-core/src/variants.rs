@@ -186,7 +186,10 @@ impl VariantSpec {
         })
     }
 
-    fn build_with<M: Matcher + 'static>(&self, matcher: M) -> Box<dyn Registrar> {
+    fn build_with<M: Matcher + PartialEq + Clone + 'static>(
+        &self,
+        matcher: M,
+    ) -> Box<dyn Registrar> {
         let selection: Box<dyn Selection> = match self.selection {
             SelectionKind::All => Box::new(AllPoints),
             SelectionKind::EqualCount { seed } => Box::new(EqualCount { seed }),

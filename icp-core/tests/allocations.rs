@@ -69,29 +69,38 @@ fn allocations_do_not_grow_with_iterations() {
 #[test]
 fn a_reused_workspace_keeps_the_buffers() {
     let (source, reference) = pair();
+    // Another pair: the same scans swapped, so the reference index must be rebuilt.
+    let (other_source, other_reference) = (&reference, &source);
     for name in builtin_names() {
         let reg = builtin(name, &VariantConfig::default())
             .unwrap()
             .build()
             .unwrap();
-        let count = |workspace: &mut Workspace| {
+        let count = |workspace: &mut Workspace, source: &Scan, reference: &Scan| {
             let mut out = None;
             let info = allocation_counter::measure(|| {
-                out = Some(reg.register_in(workspace, &source, &reference, Isometry2::identity()));
+                out = Some(reg.register_in(workspace, source, reference, Isometry2::identity()));
             });
             (info.count_total, out.unwrap().unwrap())
         };
-        let (fresh, first) = count(&mut Workspace::default());
+        let (fresh, first) = count(&mut Workspace::default(), &source, &reference);
+        let (_, other_first) = count(&mut Workspace::default(), other_source, other_reference);
         let mut workspace = Workspace::default();
-        count(&mut workspace);
-        let (warm, again) = count(&mut workspace);
+        count(&mut workspace, &source, &reference);
+        // Warm, another pair: the buffers are reused, the grid index is rebuilt.
+        let (warm_other, other_again) = count(&mut workspace, other_source, other_reference);
+        // Warm, the same pair again: the grid index and the first matching are reused too.
+        count(&mut workspace, &source, &reference);
+        let (warm_same, again) = count(&mut workspace, &source, &reference);
         assert_eq!(again, first, "{name}: a used workspace changes nothing");
-        // What remains: the grid index (5 arrays), the overlap check's grid (5) and its
-        // bookkeeping (5); everything else is the workspace's.
+        assert_eq!(other_again, other_first, "{name}: nor does a stale index");
+        // What remains: the overlap check's grid (5 arrays) and its bookkeeping (5), plus the
+        // grid index (5) when the reference changed; everything else is the workspace's.
         assert_eq!(
-            warm, 15,
-            "{name}: {warm} allocations with a warm workspace, {fresh} without"
+            (warm_other, warm_same),
+            (15, 10),
+            "{name}: allocations with a warm workspace ({fresh} without)"
         );
-        assert!(fresh > warm + 10, "{name}: {fresh} vs {warm}");
+        assert!(fresh > warm_other + 10, "{name}: {fresh} vs {warm_other}");
     }
 }

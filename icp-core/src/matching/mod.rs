@@ -73,6 +73,13 @@ impl Matches {
         self.certificates.reserve(n);
     }
 
+    /// Becomes a copy of `other`, in the buffers it already has.
+    pub fn copy_from(&mut self, other: &Matches) {
+        self.pairs.clone_from(&other.pairs);
+        self.certificates.clone_from(&other.certificates);
+        self.owner = other.owner;
+    }
+
     /// Forgets the pairs and what the index remembered (keeping the capacity): the next call
     /// searches every query afresh.
     pub fn clear(&mut self) {
@@ -101,7 +108,10 @@ pub trait NearestIndex: Send + Sync {
     }
 }
 
-/// Builds a [`NearestIndex`] over a reference scan.
+/// Builds a [`NearestIndex`] over a reference scan. An [`crate::Icp`] chain needs its matcher
+/// to be `PartialEq + Clone + 'static` too: a [`crate::Workspace`] keeps the last index with
+/// the matcher that built it, and hands it to the next registration with an equal matcher and
+/// the same reference points.
 pub trait Matcher: Send + Sync {
     /// The index this matcher builds.
     type Index: NearestIndex;
