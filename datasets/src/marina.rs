@@ -8,6 +8,7 @@
 //! The files carry no timestamps: consecutive reference positions are about 1.24 m apart at
 //! about 1.2 m/s, so the nominal spacing is 1.0 s ([`MarinaOptions::dt_s`]).
 
+use std::borrow::Cow;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -301,7 +302,7 @@ fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix
             "the header does not start with \"MATLAB 5.0 MAT-file\"".into(),
         ));
     }
-    check_elements(&bytes).map_err(parse_error)?;
+    let bytes = inflate_elements(&bytes).map_err(parse_error)?;
     let file = matfile::MatFile::parse(&bytes[..]).map_err(|e| parse_error(e.to_string()))?;
     let array = file
         .find_by_name(name)
@@ -335,10 +336,15 @@ fn read_matrix<R: Read>(path: &Path, mut reader: R, name: &str) -> Result<Matrix
     })
 }
 
-/// Walks the top-level data elements after the 128-byte header: each must fit in the file, so
-/// a truncated download is named as such instead of losing its last variable silently (the
-/// MATLAB reader skips an element it cannot complete).
-fn check_elements(bytes: &[u8]) -> Result<(), String> {
+/// The data type of a compressed data element (its data: a zlib stream of one whole element).
+const MI_COMPRESSED: u32 = 15;
+
+/// Walks the top-level data elements after the 128-byte header, and returns the file with its
+/// compressed elements inflated in place. Each element must fit in the file, so a truncated
+/// download is named as such instead of losing its last variable silently (the MATLAB reader
+/// skips an element it cannot complete). Inflating here rather than in the MATLAB reader
+/// halves the load: its inflater takes 2.5 times as long as `flate2`'s on these files.
+fn inflate_elements(bytes: &[u8]) -> Result<Cow<'_, [u8]>, String> {
     let word = |at: usize| -> u32 {
         let w = [bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]];
         if &bytes[126..128] == b"MI" {
@@ -347,12 +353,13 @@ fn check_elements(bytes: &[u8]) -> Result<(), String> {
             u32::from_le_bytes(w)
         }
     };
+    let mut out: Option<Vec<u8>> = None;
     let mut at = 128;
     while bytes.len() - at >= 8 {
-        let size = if word(at) >> 16 != 0 {
-            0 // a small element: its data sits in its 8-byte tag
+        let (kind, size) = if word(at) >> 16 != 0 {
+            (word(at) & 0xffff, 0) // a small element: its data sits in its 8-byte tag
         } else {
-            word(at + 4) as usize
+            (word(at), word(at + 4) as usize)
         };
         let remain = bytes.len() - at - 8;
         if size > remain {
@@ -360,9 +367,26 @@ fn check_elements(bytes: &[u8]) -> Result<(), String> {
                 "truncated: the data element at byte {at} declares {size} bytes, {remain} remain"
             ));
         }
+        let element = &bytes[at..at + 8 + size];
+        if kind == MI_COMPRESSED {
+            let out = out.get_or_insert_with(|| bytes[..at].to_vec());
+            flate2::read::ZlibDecoder::new(&element[8..])
+                .read_to_end(out)
+                .map_err(|e| {
+                    format!("the compressed data element at byte {at} does not inflate: {e}")
+                })?;
+        } else if let Some(out) = &mut out {
+            out.extend_from_slice(element);
+        }
         at += 8 + size;
     }
-    Ok(())
+    Ok(match out {
+        Some(mut inflated) => {
+            inflated.extend_from_slice(&bytes[at..]);
+            Cow::Owned(inflated)
+        }
+        None => Cow::Borrowed(bytes),
+    })
 }
 
 fn hex(bytes: &[u8]) -> String {

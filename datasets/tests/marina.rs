@@ -106,6 +106,67 @@ fn small_well_formed_files_parse() {
     assert_eq!(ds.reference.unwrap()[1].y_m, 0.1);
 }
 
+/// The file with each top-level element after the header wrapped in a compressed element
+/// (type 15, a zlib stream of the element), as MATLAB writes by default.
+fn compressed(file: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut out = file[..128].to_vec();
+    let mut at = 128;
+    while at + 8 <= file.len() {
+        let size = u32::from_le_bytes(file[at + 4..at + 8].try_into().unwrap()) as usize;
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&file[at..at + 8 + size]).unwrap();
+        let z = z.finish().unwrap();
+        out.extend_from_slice(&15u32.to_le_bytes());
+        out.extend_from_slice(&(z.len() as u32).to_le_bytes());
+        out.extend_from_slice(&z);
+        at += 8 + size;
+    }
+    out
+}
+
+#[test]
+fn compressed_files_read_like_plain_ones() {
+    let (a, r, g) = small();
+    let plain = parse(&a, &r, &g).unwrap();
+    let (ca, cr, cg) = (compressed(&a), compressed(&r), compressed(&g));
+    assert_ne!(cr, r, "the ranges are stored compressed");
+    // Compared through Debug, which prints every f64 exactly (Dataset is not PartialEq).
+    assert_eq!(
+        format!("{:?}", parse(&ca, &cr, &cg).unwrap()),
+        format!("{plain:?}")
+    );
+    // A compressed element after a plain one, and a plain one after a compressed one.
+    let two = write_doubles(&[
+        ("other", 1, 2, &[1.0, 2.0]),
+        ("ranges_baza", 4, 3, &[5.0; 12]),
+    ]);
+    let two = two.unwrap();
+    let mut mixed = compressed(&two);
+    let first_len = 8 + u32::from_le_bytes(two[132..136].try_into().unwrap()) as usize;
+    let z_len = 8 + u32::from_le_bytes(mixed[132..136].try_into().unwrap()) as usize;
+    mixed.truncate(128);
+    mixed.extend_from_slice(&two[128..128 + first_len]);
+    mixed.extend_from_slice(&compressed(&two)[128 + z_len..]);
+    let ds = parse(&a, &mixed, &g).unwrap();
+    assert_eq!(ds.scans[0].len(), 4);
+}
+
+#[test]
+fn a_compressed_element_that_does_not_inflate_is_named() {
+    let (a, r, g) = small();
+    let mut bad = compressed(&r);
+    let end = bad.len();
+    bad[140..end].fill(0xA5); // the zlib stream past its first bytes
+    let e = parse(&a, &bad, &g).unwrap_err().to_string();
+    assert!(
+        e.starts_with(
+            "ranges.mat is not a readable MATLAB v5 file: the compressed data element at byte 128 does not inflate: "
+        ),
+        "{e}"
+    );
+}
+
 #[test]
 fn wrong_variable_name_is_named() {
     let (a, _, g) = small();

@@ -80,6 +80,19 @@ fn marina_truncated_file() {
 }
 
 #[test]
+fn marina_corrupt_compressed_element() {
+    // A compressed element (type 15) whose zlib stream is garbage.
+    let mut bytes = ranges_mat(&GOOD_RANGES)[..128].to_vec();
+    bytes.extend_from_slice(&15u32.to_le_bytes());
+    bytes.extend_from_slice(&16u32.to_le_bytes());
+    bytes.extend_from_slice(&[0xA5; 16]);
+    assert_eq!(
+        error_of(marina_with_ranges(&bytes)),
+        "ranges.mat is not a readable MATLAB v5 file: the compressed data element at byte 128 does not inflate: corrupt deflate stream"
+    );
+}
+
+#[test]
 fn marina_wrong_magic() {
     let mut zip = b"PK\x03\x04 this is a zip archive".to_vec();
     zip.resize(300, 0);
