@@ -1,12 +1,13 @@
 //! One registration per variant on fixed marina pairs (a synthetic pair when the data is
-//! absent, said on the terminal), and the scaling of one HD_ICP registration with scan size.
+//! absent, said on the terminal), the four paper variants of each pair with and without a
+//! shared workspace, and the scaling of one HD_ICP registration with scan size.
 //!
 //!   ICP_DATA_DIR=/path/to/datasets cargo bench -p eval --bench variants
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use datasets::synthetic::{generate, ScannerConfig, Scenario};
 use icp_core::variants::{builtin, builtin_names, VariantConfig};
-use icp_core::Scan;
+use icp_core::{Scan, Workspace};
 use nalgebra::Isometry2;
 
 fn pairs() -> (String, Vec<(Scan, Scan)>) {
@@ -55,6 +56,44 @@ fn variants(c: &mut Criterion) {
     group.finish();
 }
 
+/// The paper's four variants on each pair, as the runner does (one workspace: the first
+/// variant's preparation is shared) and one registration at a time (a fresh workspace each).
+fn shared_pair(c: &mut Criterion) {
+    let (source, pairs) = pairs();
+    let regs: Vec<_> = ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"]
+        .iter()
+        .map(|n| {
+            builtin(n, &VariantConfig::default())
+                .expect("built in")
+                .build()
+                .expect("valid")
+        })
+        .collect();
+    let mut group = c.benchmark_group(format!("four_variants/{source}"));
+    group.bench_function("one_workspace", |b| {
+        let mut workspace = Workspace::default();
+        b.iter(|| {
+            for (s, r) in &pairs {
+                for reg in &regs {
+                    reg.register_in(&mut workspace, s, r, Isometry2::identity())
+                        .expect("registers");
+                }
+            }
+        })
+    });
+    group.bench_function("fresh_workspaces", |b| {
+        b.iter(|| {
+            for (s, r) in &pairs {
+                for reg in &regs {
+                    reg.register(s, r, Isometry2::identity())
+                        .expect("registers");
+                }
+            }
+        })
+    });
+    group.finish();
+}
+
 fn scaling(c: &mut Criterion) {
     let mut group = c.benchmark_group("scaling/HD_ICP");
     group.sample_size(10);
@@ -83,5 +122,5 @@ fn scaling(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, variants, scaling);
+criterion_group!(benches, variants, shared_pair, scaling);
 criterion_main!(benches);
