@@ -225,7 +225,7 @@ struct SharedReference<M: Matcher> {
     /// The matcher that built `index`, from the points `reference`.
     matcher: M,
     reference: Vec<Point2<f64>>,
-    index: Option<M::Index>,
+    index: M::Index,
     /// The queries of the first matching made with `index` (empty: none yet), and its result.
     queries: Vec<Point2<f64>>,
     first: Matches,
@@ -412,35 +412,33 @@ where
         check_geometry(src_pts.iter(), ScanRole::Source)?;
         check_geometry(dst_pts.iter(), ScanRole::Reference)?;
 
-        let mut shared = shared
+        let cached = shared
             .take()
-            .and_then(|any| any.downcast::<SharedReference<M>>().ok())
-            .unwrap_or_else(|| {
-                Box::new(SharedReference {
-                    matcher: self.matcher.clone(),
-                    reference: Vec::new(),
-                    index: None,
-                    queries: Vec::new(),
-                    first: Matches::default(),
-                })
-            });
+            .and_then(|any| any.downcast::<SharedReference<M>>().ok());
+        let mut shared = match cached {
+            Some(mut cached) => {
+                if cached.matcher != self.matcher || cached.reference != *dst_pts {
+                    cached.index = self.matcher.build(dst_pts)?;
+                    cached.matcher = self.matcher.clone();
+                    cached.reference.clone_from(dst_pts);
+                    cached.queries.clear();
+                }
+                cached
+            }
+            None => Box::new(SharedReference {
+                index: self.matcher.build(dst_pts)?,
+                matcher: self.matcher.clone(),
+                reference: dst_pts.clone(),
+                queries: Vec::new(),
+                first: Matches::default(),
+            }),
+        };
         let SharedReference {
-            matcher,
-            reference: built_from,
             index,
             queries,
             first,
+            ..
         } = &mut *shared;
-        if *matcher != self.matcher || built_from != dst_pts {
-            *matcher = self.matcher.clone();
-            built_from.clone_from(dst_pts);
-            *index = None;
-            queries.clear();
-        }
-        let index = match index {
-            Some(index) => &*index,
-            empty @ None => &*empty.insert(self.matcher.build(dst_pts)?),
-        };
 
         // Every buffer the loop writes is sized here: nothing is allocated inside the loop.
         let n = src.len();
@@ -491,9 +489,7 @@ where
         init: Isometry2<f64>,
     ) -> Result<Registration, IcpError> {
         let shared = self.prepare(workspace, source, reference, init)?;
-        let Some(index) = &shared.index else {
-            unreachable!("prepare returns a built index")
-        };
+        let index = &shared.index;
         let Workspace {
             src,
             dst,
