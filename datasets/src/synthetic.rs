@@ -435,9 +435,16 @@ impl<'w> Sectors<'w> {
     /// Added to every widening, radians: far above the rounding of the angles.
     const MARGIN_RAD: f64 = 1e-6;
 
+    /// Width of a sector, radians.
+    const WIDTH_RAD: f64 = std::f64::consts::TAU / Self::COUNT as f64;
+
+    /// Where `angle_rad` (from −π) falls, in sectors: its integer part is the sector.
+    fn position(angle_rad: f64) -> f64 {
+        (angle_rad + std::f64::consts::PI) / Self::WIDTH_RAD
+    }
+
     fn sector(angle_rad: f64) -> usize {
-        let turn = (angle_rad + std::f64::consts::PI) / std::f64::consts::TAU;
-        ((turn * Self::COUNT as f64).floor().max(0.0) as usize).min(Self::COUNT - 1)
+        (Self::position(angle_rad).floor().max(0.0) as usize).min(Self::COUNT - 1)
     }
 
     /// The first sector and the number of sectors of `segment` seen from `centre`.
@@ -457,13 +464,11 @@ impl<'w> Sectors<'w> {
             sweep += std::f64::consts::TAU;
         }
         let (lo, width) = (from.min(from + sweep) - widen, sweep.abs() + 2.0 * widen);
-        let sector_width = std::f64::consts::TAU / Self::COUNT as f64;
         // Whole sectors from the one holding `lo` (wrapped into the turn) to the one holding
         // `lo + width`, counted without wrapping.
-        let first_turn = (lo + std::f64::consts::PI) / sector_width;
         let (first, last) = (
-            first_turn.floor(),
-            (first_turn + width / sector_width).floor(),
+            Self::position(lo).floor(),
+            Self::position(lo + width).floor(),
         );
         let count = (last - first) as usize + 1;
         if count >= Self::COUNT {
