@@ -1,6 +1,7 @@
 //! Our own plain-text format, so anyone can bring their data (see `datasets/README.md`): a
-//! directory with `scans.csv` (one row per reading), optionally `poses.csv` (one reference pose
-//! per scan) and `dataset.json` (name, timing, senses, sensor model).
+//! directory with `scans.csv` (one row per reading, optionally with the true surface normal
+//! behind it), optionally `poses.csv` (one reference pose per scan) and `dataset.json` (name,
+//! timing, senses, sensor model).
 //!
 //! Numbers are written in Rust's shortest round-trip form, so a dataset written and read back
 //! is the same bit for bit.
@@ -10,14 +11,22 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use icp_core::{BearingSense, Scan, SensorModel};
+use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
 use crate::DatasetError;
 
-/// Readings, one row each: `scan,timestamp_s,range_m,bearing_rad`.
+/// Readings, one row each: `scan,timestamp_s,range_m,bearing_rad`, optionally followed by
+/// `true_normal_x,true_normal_y` (the true surface normal behind the return, unitless, scan
+/// frame; both cells empty when unknown). The two normal columns come together or not at all.
 pub const SCANS_FILE: &str = "scans.csv";
+
+/// The columns every `scans.csv` has.
+const SCAN_COLUMNS: [&str; 4] = ["scan", "timestamp_s", "range_m", "bearing_rad"];
+/// The optional true-normal columns of `scans.csv`.
+const NORMAL_COLUMNS: [&str; 2] = ["true_normal_x", "true_normal_y"];
 /// Reference poses, one row per scan: `scan,x_m,y_m,heading_rad,scan_yaw_rad`.
 pub const POSES_FILE: &str = "poses.csv";
 /// Metadata.
@@ -48,6 +57,33 @@ struct ReadingRow {
     timestamp_s: Option<f64>,
     range_m: Option<f64>,
     bearing_rad: Option<f64>,
+    #[serde(default)]
+    true_normal_x: Option<f64>,
+    #[serde(default)]
+    true_normal_y: Option<f64>,
+}
+
+impl ReadingRow {
+    /// The row's true normal: none when both cells are empty, else both finite and not both
+    /// zero. The error says which field is wrong.
+    fn true_normal(&self) -> Result<Option<Vector2<f64>>, String> {
+        let [nx, ny] = NORMAL_COLUMNS;
+        let (x, y) = match (self.true_normal_x, self.true_normal_y) {
+            (None, None) => return Ok(None),
+            (Some(x), Some(y)) => (x, y),
+            (Some(_), None) => return Err(format!("{ny} is empty but {nx} is not")),
+            (None, Some(_)) => return Err(format!("{nx} is empty but {ny} is not")),
+        };
+        for (field, value) in [(nx, x), (ny, y)] {
+            if !value.is_finite() {
+                return Err(format!("non-finite {field}: {value}"));
+            }
+        }
+        if x == 0.0 && y == 0.0 {
+            return Err(format!("zero-length true normal: {nx} and {ny} are both 0"));
+        }
+        Ok(Some(Vector2::new(x, y)))
+    }
 }
 
 #[derive(Deserialize)]
@@ -69,11 +105,13 @@ fn csv_error(path: &Path, e: &csv::Error) -> DatasetError {
     }
 }
 
-/// Every row of a CSV file whose header has exactly `columns`, deserialized, with its line.
+/// Every row of a CSV file whose header has exactly `columns`, plus either all of `optional`
+/// or none of them, deserialized, with its line.
 fn rows<T: serde::de::DeserializeOwned, R: Read>(
     path: &Path,
     reader: R,
     columns: &[&str],
+    optional: &[&str],
 ) -> Result<Vec<(usize, T)>, DatasetError> {
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -84,16 +122,31 @@ fn rows<T: serde::de::DeserializeOwned, R: Read>(
         line: 1,
         what,
     };
-    if let Some(missing) = columns.iter().find(|c| !headers.iter().any(|h| h == **c)) {
+    let expected = if optional.is_empty() {
+        columns.join(",")
+    } else {
+        format!("{}[,{}]", columns.join(","), optional.join(","))
+    };
+    let has = |c: &str| headers.iter().any(|h| h == c);
+    if let Some(missing) = columns.iter().find(|c| !has(c)) {
         return Err(header_error(format!(
-            "missing column {missing:?} (expected {})",
-            columns.join(",")
+            "missing column {missing:?} (expected {expected})"
         )));
     }
-    if let Some(extra) = headers.iter().find(|h| !columns.contains(h)) {
+    if let Some(extra) = headers
+        .iter()
+        .find(|h| !columns.contains(h) && !optional.contains(h))
+    {
         return Err(header_error(format!(
-            "unknown column {extra:?} (expected {})",
-            columns.join(",")
+            "unknown column {extra:?} (expected {expected})"
+        )));
+    }
+    if let (Some(present), Some(absent)) = (
+        optional.iter().find(|c| has(c)),
+        optional.iter().find(|c| !has(c)),
+    ) {
+        return Err(header_error(format!(
+            "column {present:?} without {absent:?} (expected {expected})"
         )));
     }
     let mut record = csv::StringRecord::new();
@@ -186,18 +239,22 @@ pub fn parse<R: Read>(
 ) -> Result<Dataset, DatasetError> {
     let (scans_path, reader) = scans;
     let mut out: Vec<Scan> = Vec::new();
-    let (mut ranges, mut bearings) = (Vec::new(), Vec::new());
+    let (mut ranges, mut bearings, mut normals) = (Vec::new(), Vec::new(), Vec::new());
     let mut current: Option<(usize, Option<f64>)> = None;
     let finish = |id: usize,
                   ts: Option<f64>,
                   ranges: &[f64],
-                  bearings: &[f64]|
+                  bearings: &[f64],
+                  normals: &[Option<Vector2<f64>>]|
      -> Result<Scan, DatasetError> {
-        let scan = Scan::from_polar(ranges, bearings).map_err(|source| DatasetError::Scan {
-            path: scans_path.to_path_buf(),
-            scan: id,
-            source,
-        })?;
+        let scan =
+            Scan::from_polar_with_true_normals(ranges, bearings, normals).map_err(|source| {
+                DatasetError::Scan {
+                    path: scans_path.to_path_buf(),
+                    scan: id,
+                    source,
+                }
+            })?;
         match ts {
             Some(t) => scan.with_timestamp(t).map_err(|source| DatasetError::Scan {
                 path: scans_path.to_path_buf(),
@@ -207,11 +264,7 @@ pub fn parse<R: Read>(
             None => Ok(scan),
         }
     };
-    for (line, row) in rows::<ReadingRow, _>(
-        scans_path,
-        reader,
-        &["scan", "timestamp_s", "range_m", "bearing_rad"],
-    )? {
+    for (line, row) in rows::<ReadingRow, _>(scans_path, reader, &SCAN_COLUMNS, &NORMAL_COLUMNS)? {
         let bad = |what: String| DatasetError::Parse {
             path: scans_path.to_path_buf(),
             line,
@@ -235,9 +288,10 @@ pub fn parse<R: Read>(
                         row.scan
                     )));
                 }
-                out.push(finish(id, ts, &ranges, &bearings)?);
+                out.push(finish(id, ts, &ranges, &bearings, &normals)?);
                 ranges.clear();
                 bearings.clear();
+                normals.clear();
                 current = Some((row.scan, row.timestamp_s));
             }
             None => {
@@ -252,9 +306,10 @@ pub fn parse<R: Read>(
         }
         ranges.push(row.range_m.unwrap_or(f64::NAN));
         bearings.push(row.bearing_rad.unwrap_or(f64::NAN));
+        normals.push(row.true_normal().map_err(bad)?);
     }
     if let Some((id, ts)) = current {
-        out.push(finish(id, ts, &ranges, &bearings)?);
+        out.push(finish(id, ts, &ranges, &bearings, &normals)?);
     }
     let reference = match poses {
         None => None,
@@ -264,6 +319,7 @@ pub fn parse<R: Read>(
                 poses_path,
                 reader,
                 &["scan", "x_m", "y_m", "heading_rad", "scan_yaw_rad"],
+                &[],
             )? {
                 let bad = |what: String| DatasetError::Parse {
                     path: poses_path.to_path_buf(),
@@ -350,21 +406,41 @@ pub fn parse<R: Read>(
 }
 
 /// Writes `ds` as a dataset directory (creating it). Each scan's no-returns are written as
-/// rows with empty range and bearing, so the counts survive the round trip.
+/// rows with empty range and bearing, so the counts survive the round trip. The true-normal
+/// columns are written when any scan carries true normals, empty where a normal is unknown.
 pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
     std::fs::create_dir_all(dir).map_err(|source| DatasetError::Io {
         path: dir.to_path_buf(),
         source,
     })?;
     let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
-    let mut s = String::from("scan,timestamp_s,range_m,bearing_rad\n");
+    let with_normals = ds.scans.iter().any(|s| s.true_normals().is_some());
+    let mut s = SCAN_COLUMNS.join(",");
+    if with_normals {
+        let _ = write!(s, ",{}", NORMAL_COLUMNS.join(","));
+    }
+    s.push('\n');
     for (k, scan) in ds.scans.iter().enumerate() {
         let ts = opt(scan.timestamp_s());
-        for r in scan.returns() {
-            let _ = writeln!(s, "{k},{ts},{},{}", r.range_m, r.bearing_rad);
+        let normals = scan.true_normals();
+        for (i, r) in scan.returns().iter().enumerate() {
+            let _ = write!(s, "{k},{ts},{},{}", r.range_m, r.bearing_rad);
+            if with_normals {
+                match normals.and_then(|n| n.get(i).copied().flatten()) {
+                    Some(n) => {
+                        let _ = write!(s, ",{},{}", n.x, n.y);
+                    }
+                    None => s.push_str(",,"),
+                }
+            }
+            s.push('\n');
         }
         for _ in 0..scan.no_returns() {
-            let _ = writeln!(s, "{k},{ts},,");
+            let _ = write!(s, "{k},{ts},,");
+            if with_normals {
+                s.push_str(",,");
+            }
+            s.push('\n');
         }
     }
     write_file(&dir.join(SCANS_FILE), s.as_bytes())?;

@@ -6,7 +6,9 @@
 //! starboard), finger piers on the starboard quay, moored hulls along the port quay, and end
 //! walls closing the basin; beyond 40 m the water returns nothing. The scanner casts one ray
 //! per beam against these segments and adds the sensor model's noise (eq. 8): the beam leaves
-//! at its nominal bearing plus `N(0, σ_α)` and the range gets `N(0, σ_r(r))`.
+//! at its nominal bearing plus `N(0, σ_α)` and the range gets `N(0, σ_r(r))`. Each return
+//! keeps the true normal of the surface it came from ([`Scan::true_normals`]); spurious
+//! returns have none.
 //!
 //! Frames: the world is east-north (x east, y north); the scanner's `+x` is the bow and its
 //! bearings grow counter-clockwise; the reference heading is navigational (clockwise from
@@ -331,6 +333,18 @@ impl Segment {
         (t > 1e-9 && (0.0..=1.0).contains(&s)).then_some(t)
     }
 
+    /// The segment's unit normal facing back along a ray of direction `u` that hits it (so
+    /// `nᵀ(o − p) > 0` for the ray's origin `o` and hit `p`); `None` if the ray runs along it.
+    fn normal_facing(&self, u: &Vector2<f64>) -> Option<Vector2<f64>> {
+        let e = self.b - self.a;
+        let n = Vector2::new(-e.y, e.x).try_normalize(0.0)?;
+        match n.dot(u) {
+            along if along < 0.0 => Some(n),
+            along if along > 0.0 => Some(-n),
+            _ => None,
+        }
+    }
+
     /// Distance from `p` to the segment, metres.
     pub fn distance_to(&self, p: &Point2<f64>) -> f64 {
         let e = self.b - self.a;
@@ -507,14 +521,35 @@ impl<'w> Sectors<'w> {
         }
     }
 
-    /// The nearest hit of the ray `o + t u` (`|u| = 1`, `o` within the spread), or infinity.
-    fn cast(&self, o: &Point2<f64>, u: &Vector2<f64>) -> f64 {
+    /// The nearest hit of the ray `o + t u` (`|u| = 1`, `o` within the spread): its distance
+    /// `t`, metres, and the segment hit (of several at exactly that distance, the first).
+    fn cast(&self, o: &Point2<f64>, u: &Vector2<f64>) -> Option<(f64, &'w Segment)> {
         let k = Self::sector(u.y.atan2(u.x));
         self.members[self.start[k] as usize..self.start[k + 1] as usize]
             .iter()
-            .filter_map(|&i| self.segments[i as usize].hit(o, u))
-            .fold(f64::INFINITY, f64::min)
+            .filter_map(|&i| {
+                let segment = self.segments[i as usize];
+                segment.hit(o, u).map(|t| (t, segment))
+            })
+            .fold(None, |nearest, (t, segment)| match nearest {
+                Some((best, _)) if best <= t => nearest,
+                _ => Some((t, segment)),
+            })
     }
+}
+
+/// One revolution's readings, one entry per beam, in the scan frame (the scanner's frame at
+/// the revolution's start).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Revolution {
+    /// Ranges, metres; NaN: no return.
+    pub ranges_m: Vec<f64>,
+    /// Nominal bearings, radians.
+    pub bearings_rad: Vec<f64>,
+    /// The true surface normal behind each return: the unit normal (unitless, scan frame) of
+    /// the segment hit, facing the beam's origin. `None` for a spurious return and for a beam
+    /// without return.
+    pub true_normals: Vec<Option<Vector2<f64>>>,
 }
 
 /// Casts the scanner's beams against a world.
@@ -530,21 +565,22 @@ impl<'a> Scanner<'a> {
     }
 
     /// One revolution starting at `t_s`, with the scanner at `pose_at(t)` (world frame):
-    /// parallel ranges (NaN = no return) and nominal bearings. `noise_rng` draws the sensor
-    /// noise and `event_rng` the beam phase, dropouts and gross errors, so a noise-free and a
-    /// noisy scan from the same event stream sample the same beams.
+    /// parallel ranges (NaN = no return), nominal bearings and true normals. `noise_rng` draws
+    /// the sensor noise and `event_rng` the beam phase, dropouts and gross errors, so a
+    /// noise-free and a noisy scan from the same event stream sample the same beams.
     pub fn scan(
         &self,
         pose_at: &dyn Fn(f64) -> Isometry2<f64>,
         t_s: f64,
         noise_rng: &mut ChaCha8Rng,
         event_rng: &mut ChaCha8Rng,
-    ) -> (Vec<f64>, Vec<f64>) {
+    ) -> Revolution {
         let sc = self.config;
         let unit = Normal::new(0.0, 1.0).expect("unit normal");
         let beams = sc.beams_per_rev();
         let beam_step = std::f64::consts::TAU / beams as f64;
         let start = pose_at(t_s);
+        let world_to_scan = start.rotation.inverse();
         let centre = Point2::from(start.translation.vector);
         let reach = sc.max_range_m + if sc.motion_distortion { 2.0 } else { 0.0 };
         let near: Vec<&Segment> = self
@@ -570,6 +606,7 @@ impl<'a> Scanner<'a> {
         let phase = event_rng.random_range(0.0..beam_step);
         let mut ranges = Vec::with_capacity(beams);
         let mut bearings = Vec::with_capacity(beams);
+        let mut normals = Vec::with_capacity(beams);
         for (j, pose) in poses.iter().enumerate() {
             let bearing = phase + j as f64 * beam_step;
             let (n_alpha, n_range) = (unit.sample(noise_rng), unit.sample(noise_rng));
@@ -581,23 +618,35 @@ impl<'a> Scanner<'a> {
             let dir = pose.rotation
                 * Vector2::new((bearing + alpha_err).cos(), (bearing + alpha_err).sin());
             let origin = Point2::from(pose.translation.vector);
-            let hit = sectors.cast(&origin, &dir);
-            let mut r = f64::NAN;
-            if hit <= sc.max_range_m && !event_rng.random_bool(sc.dropout_prob) {
-                r = hit
-                    + if sc.noise {
-                        sc.sensor.sigma_r_m(hit) * n_range
-                    } else {
-                        0.0
-                    };
+            let hit = sectors
+                .cast(&origin, &dir)
+                .filter(|&(t, _)| t <= sc.max_range_m);
+            let (mut r, mut normal) = (f64::NAN, None);
+            if let Some((hit, segment)) = hit {
+                if !event_rng.random_bool(sc.dropout_prob) {
+                    r = hit
+                        + if sc.noise {
+                            sc.sensor.sigma_r_m(hit) * n_range
+                        } else {
+                            0.0
+                        };
+                    normal = segment.normal_facing(&dir).map(|n| world_to_scan * n);
+                }
             }
             if event_rng.random_bool(sc.gross_error_fraction) {
                 r = event_rng.random_range(1.0..0.5 * sc.max_range_m);
+                normal = None;
             }
-            ranges.push(if r > 0.0 { r } else { f64::NAN });
+            let returned = r > 0.0;
+            ranges.push(if returned { r } else { f64::NAN });
             bearings.push(bearing);
+            normals.push(normal.filter(|_| returned));
         }
-        (ranges, bearings)
+        Revolution {
+            ranges_m: ranges,
+            bearings_rad: bearings,
+            true_normals: normals,
+        }
     }
 }
 
@@ -616,14 +665,15 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     let mut reference = Vec::with_capacity(scenario.n_scans);
     for k in 0..scenario.n_scans {
         let t_k = k as f64 * scenario.dt_s;
-        let (ranges, bearings) = scanner.scan(&pose_at, t_k, &mut noise_rng, &mut event_rng);
-        let scan = Scan::from_polar(&ranges, &bearings)
-            .and_then(|s| s.with_timestamp(t_k))
-            .map_err(|source| DatasetError::Scan {
-                path: "<synthetic>".into(),
-                scan: k,
-                source,
-            })?;
+        let rev = scanner.scan(&pose_at, t_k, &mut noise_rng, &mut event_rng);
+        let scan =
+            Scan::from_polar_with_true_normals(&rev.ranges_m, &rev.bearings_rad, &rev.true_normals)
+                .and_then(|s| s.with_timestamp(t_k))
+                .map_err(|source| DatasetError::Scan {
+                    path: "<synthetic>".into(),
+                    scan: k,
+                    source,
+                })?;
         scans.push(scan);
         let pose_k = track.pose_at(t_k);
         let yaw = pose_k.rotation.angle();
@@ -687,9 +737,100 @@ mod tests {
                         .iter()
                         .filter_map(|s| s.hit(&o, &u))
                         .fold(f64::INFINITY, f64::min);
-                    prop_assert_eq!(sectors.cast(&o, &u).to_bits(), brute.to_bits());
+                    let cast = sectors.cast(&o, &u);
+                    prop_assert_eq!(cast.map_or(f64::INFINITY, |(t, _)| t).to_bits(), brute.to_bits());
+                    // The segment named is the first one hit at exactly that distance.
+                    let first = world.iter().find(|s| s.hit(&o, &u) == Some(brute));
+                    let same = match (cast, first) {
+                        (Some((_, s)), Some(f)) => std::ptr::eq(s, f),
+                        (None, None) => true,
+                        _ => false,
+                    };
+                    prop_assert!(same, "{:?} vs {:?}", cast, first);
                 }
             }
+        }
+    }
+
+    /// Noise-free beams in the paper's harbour, with many spurious returns, with and without
+    /// motion distortion: a return with a true normal lies on a world segment, at exactly the
+    /// distance of its beam's nearest hit, and its normal (turned back into the world) is that
+    /// segment's, facing the beam's origin; a return without one is spurious.
+    #[test]
+    fn true_normals_are_the_normals_of_the_surfaces_hit() {
+        let scenario = Scenario::paper();
+        let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + 0.2;
+        let track = Track::new(&scenario, duration_s);
+        let mut event_rng = ChaCha8Rng::seed_from_u64(5);
+        let world = build_world(&track, duration_s, &mut event_rng);
+        let mut noise_rng = ChaCha8Rng::seed_from_u64(6);
+        let pose_at = |t: f64| track.pose_at(t);
+        for motion_distortion in [false, true] {
+            let sc = ScannerConfig {
+                noise: false,
+                gross_error_fraction: 0.05,
+                motion_distortion,
+                rotation_hz: 1.0, // a slow head: the vessel moves 1.2 m and turns within a scan
+                sample_rate_hz: 750.0,
+                ..ScannerConfig::default()
+            };
+            let scanner = Scanner::new(&sc, &world);
+            let (mut on_surfaces, mut spurious) = (0, 0);
+            for t_s in [0.0, 30.0, 50.0, 60.0, 100.0, 150.0, 160.0] {
+                let rev = scanner.scan(&pose_at, t_s, &mut noise_rng, &mut event_rng);
+                let start = pose_at(t_s);
+                let beams = rev.ranges_m.len();
+                for (j, ((&r, &a), n)) in rev
+                    .ranges_m
+                    .iter()
+                    .zip(&rev.bearings_rad)
+                    .zip(&rev.true_normals)
+                    .enumerate()
+                {
+                    if r.is_nan() {
+                        assert_eq!(*n, None, "a beam without return has no normal");
+                        continue;
+                    }
+                    let pose = if motion_distortion {
+                        pose_at(t_s + sc.rotation_period_s() * j as f64 / beams as f64)
+                    } else {
+                        start
+                    };
+                    let origin = Point2::from(pose.translation.vector);
+                    let u = pose.rotation * Vector2::new(a.cos(), a.sin());
+                    let nearest = world
+                        .iter()
+                        .filter_map(|s| s.hit(&origin, &u))
+                        .fold(f64::INFINITY, f64::min);
+                    let Some(n) = n else {
+                        assert_ne!(r, nearest, "beam {j} at {t_s} s: a return without normal");
+                        spurious += 1;
+                        continue;
+                    };
+                    assert_eq!(r.to_bits(), nearest.to_bits(), "beam {j} at {t_s} s");
+                    assert!((n.norm() - 1.0).abs() < 1e-15, "{n}");
+                    let p = pose * Point2::new(r * a.cos(), r * a.sin());
+                    let n_world = start.rotation * n;
+                    let matches = world
+                        .iter()
+                        .filter(|s| s.distance_to(&p) < 1e-9)
+                        .map(|s| {
+                            let e = (s.b - s.a).normalize();
+                            let m = Vector2::new(-e.y, e.x);
+                            let m = if m.dot(&(origin - p)) > 0.0 { m } else { -m };
+                            (n_world - m).norm()
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(
+                        matches < 1e-12,
+                        "beam {j} at {t_s} s: {n_world} is off by {matches}"
+                    );
+                    on_surfaces += 1;
+                }
+            }
+            // 7 revolutions of 750 beams, 5 % of them spurious.
+            assert!(on_surfaces > 3000, "{on_surfaces}");
+            assert!((150..400).contains(&spurious), "{spurious}");
         }
     }
 
@@ -702,7 +843,7 @@ mod tests {
         let sectors = Sectors::new(vec![&wall], &Point2::origin(), 0.0);
         for psi in [std::f64::consts::PI, -std::f64::consts::PI, 3.0, -3.0] {
             let u = Vector2::new(psi.cos(), psi.sin());
-            let t = sectors.cast(&Point2::origin(), &u);
+            let (t, _) = sectors.cast(&Point2::origin(), &u).unwrap();
             assert!((t - 10.0 / psi.cos().abs()).abs() < 1e-9, "{psi}: {t}");
         }
         // Seen from the centre it spans 2 atan(3/10) = 33.4° of the turn: 47.5 sectors of the 512,

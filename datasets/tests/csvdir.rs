@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use datasets::csvdir::{self, DatasetMeta};
 use datasets::synthetic::{generate, Scenario};
 use datasets::DatasetError;
+use icp_core::Scan;
+use nalgebra::Vector2;
 
 fn tmp(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -37,6 +39,26 @@ fn written_and_read_back_bit_for_bit() {
         ds.scans.iter().all(|s| s.no_returns() > 0),
         "the round trip covers no-returns"
     );
+    // The true normals come back bit for bit, unknown ones (spurious returns) included.
+    let text = std::fs::read_to_string(dir.join("scans.csv")).unwrap();
+    assert!(text.starts_with("scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n"));
+    let bits = |ds: &datasets::Dataset| -> Vec<Option<[u64; 2]>> {
+        ds.scans
+            .iter()
+            .flat_map(|s| s.true_normals().unwrap())
+            .map(|n| n.map(|n| [n.x.to_bits(), n.y.to_bits()]))
+            .collect()
+    };
+    let written = bits(&ds);
+    assert_eq!(bits(&back), written);
+    assert_eq!(
+        written.len(),
+        ds.scans.iter().map(|s| s.len()).sum::<usize>()
+    );
+    assert!(
+        written.contains(&None),
+        "the round trip covers unknown normals"
+    );
 }
 
 fn parse(scans: &str, poses: Option<&str>) -> Result<datasets::Dataset, DatasetError> {
@@ -66,8 +88,87 @@ fn minimal_files_parse_with_defaults() {
     assert_eq!(ds.provenance.name, "test");
 }
 
+/// A file without the true-normal columns reads as before, and is written again without them.
+#[test]
+fn files_without_true_normals_read_and_write_as_before() {
+    let ds = parse(GOOD, None).unwrap();
+    let expected = [
+        Scan::from_polar(&[5.0, 6.0, f64::NAN], &[0.0, 1.0, f64::NAN]),
+        Scan::from_polar(&[5.1, 6.1, 7.0], &[0.0, 1.0, 2.0]),
+    ];
+    for ((scan, expected), t) in ds.scans.iter().zip(expected).zip([0.0, 0.5]) {
+        assert_eq!(*scan, expected.unwrap().with_timestamp(t).unwrap());
+        assert_eq!(scan.true_normals(), None);
+    }
+    let dir = tmp("csv_without_normals");
+    csvdir::write(&dir, &ds).unwrap();
+    let text = std::fs::read_to_string(dir.join("scans.csv")).unwrap();
+    assert_eq!(
+        text,
+        "scan,timestamp_s,range_m,bearing_rad\n0,0,5,0\n0,0,6,1\n0,0,,\n1,0.5,5.1,0\n1,0.5,6.1,1\n1,0.5,7,2\n"
+    );
+}
+
+/// The true-normal columns, in any order: empty cells are unknown normals, the given ones are
+/// scaled to unit length and follow the returns (a no-return row's normal is dropped with it).
+#[test]
+fn true_normals_are_read_beside_the_returns() {
+    let ds = parse(
+        "scan,true_normal_y,timestamp_s,range_m,bearing_rad,true_normal_x\n\
+         0,0,0,5,0,-2\n0,,0,6,1,\n0,1,0,,,0\n0,4,0,7,2,3\n1,,1,5,0,\n1,,1,6,1,\n1,,1,7,2,\n",
+        None,
+    )
+    .unwrap();
+    let v = |x: f64, y: f64| Some(Vector2::new(x, y));
+    assert_eq!((ds.scans[0].len(), ds.scans[0].no_returns()), (3, 1));
+    assert_eq!(
+        ds.scans[0].true_normals(),
+        Some(&[v(-1.0, 0.0), None, v(0.6, 0.8)][..])
+    );
+    assert_eq!(
+        ds.scans[1].true_normals(),
+        None,
+        "no normal known in scan 1"
+    );
+}
+
 #[test]
 fn broken_files_are_errors_naming_the_file_and_line() {
+    const NORMALS: &str = "scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n";
+    let bad_normals = [
+        (
+            "scan,timestamp_s,range_m,bearing_rad,true_normal_y\n0,0,5,0,1\n".to_owned(),
+            "scans.csv:1: column \"true_normal_y\" without \"true_normal_x\"",
+        ),
+        (
+            format!("{NORMALS}0,0,5,0,1,0\n0,0,6,1,NaN,0\n"),
+            "scans.csv:3: non-finite true_normal_x: NaN",
+        ),
+        (
+            format!("{NORMALS}0,0,5,0,0,-inf\n"),
+            "scans.csv:2: non-finite true_normal_y: -inf",
+        ),
+        (
+            format!("{NORMALS}0,0,5,0,0,0\n"),
+            "scans.csv:2: zero-length true normal: true_normal_x and true_normal_y are both 0",
+        ),
+        (
+            format!("{NORMALS}0,0,5,0,1,\n"),
+            "scans.csv:2: true_normal_y is empty but true_normal_x is not",
+        ),
+        (
+            format!("{NORMALS}0,0,,,,1\n"),
+            "scans.csv:2: true_normal_x is empty but true_normal_y is not",
+        ),
+    ];
+    for (scans, expected) in bad_normals {
+        let e = parse(&scans, None).unwrap_err();
+        assert!(matches!(e, DatasetError::Parse { .. }), "{e:?}");
+        assert!(
+            e.to_string().starts_with(expected),
+            "{e} (expected {expected:?})"
+        );
+    }
     let cases: [(&str, Option<&str>, &str); 8] = [
         (
             "scan,timestamp_s,range_m\n0,0,5\n",

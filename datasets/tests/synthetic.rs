@@ -3,7 +3,8 @@
 
 use datasets::synthetic::{generate, Scanner, ScannerConfig, Scenario, Segment, Turn};
 use datasets::DatasetError;
-use icp_core::variants::{builtin, VariantConfig};
+use icp_core::variants::builtin;
+use icp_core::Registrar;
 use icp_core::{SensorModel, Termination};
 use nalgebra::{Isometry2, Point2, Vector2};
 use rand::SeedableRng;
@@ -99,8 +100,8 @@ fn generated_noise_fits_the_sensor_model() {
     let (mut s11, mut s12, mut s22, mut t1, mut t2) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let mut n = 0;
     for _ in 0..300 {
-        let (ranges, bearings) = scanner.scan(&|_| pose, 0.0, &mut noise, &mut events);
-        for (&r, &a) in ranges.iter().zip(&bearings) {
+        let rev = scanner.scan(&|_| pose, 0.0, &mut noise, &mut events);
+        for (&r, &a) in rev.ranges_m.iter().zip(&rev.bearings_rad) {
             let u = pose.rotation * Vector2::new(a.cos(), a.sin());
             let p = pose * Point2::new(r * a.cos(), r * a.sin());
             // The wall hit: the one nearest the return; keep away from the corners.
@@ -155,14 +156,13 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
     };
     let ds = generate(&scenario).unwrap();
     let r = ds.reference.as_ref().unwrap();
-    let config = VariantConfig {
-        termination: Termination {
-            max_iterations: 500,
-            mean_dist_change_eps_m: 1e-10,
-        },
-        ..VariantConfig::default()
+    let mut spec = builtin("HD_ICP").unwrap();
+    spec.termination = Termination {
+        max_iterations: 500,
+        mean_residual_change_eps_m: 1e-10,
+        ..Termination::default()
     };
-    let hd = builtin("HD_ICP", &config).unwrap().build().unwrap();
+    let hd = spec.build().unwrap();
     for pair in ds.consecutive_pairs().0 {
         let out = hd
             .register(
@@ -266,4 +266,47 @@ fn motion_distortion_moves_late_beams_by_the_travel_during_the_revolution() {
     assert!(first < 1e-9, "{first}");
     let shift = (last_a.point - last_b.point).norm();
     assert!(shift > 0.3 && shift < 2.5, "last beam moved by {shift} m");
+}
+
+/// Every generated return carries the true normal of its surface: unit, in the scan frame,
+/// facing the sensor (`nᵀ(0 − p) > 0` for the return `p`). Only spurious returns have none.
+#[test]
+fn generated_returns_carry_true_normals_facing_the_sensor() {
+    let exact = ScannerConfig {
+        noise: false,
+        gross_error_fraction: 0.0,
+        ..ScannerConfig::default()
+    };
+    for (gross_error_fraction, unknown) in [(0.0, 0..1), (0.05, 350..550)] {
+        let ds = generate(&Scenario {
+            scanner: ScannerConfig {
+                gross_error_fraction,
+                ..exact
+            },
+            ..short(12)
+        })
+        .unwrap();
+        let mut without = 0;
+        for scan in &ds.scans {
+            let normals = scan.true_normals().expect("a synthetic scan has normals");
+            assert_eq!(normals.len(), scan.len());
+            for (ret, n) in scan.returns().iter().zip(normals) {
+                let Some(n) = n else {
+                    without += 1;
+                    continue;
+                };
+                assert!((n.norm() - 1.0).abs() < 1e-15, "{n}");
+                assert!(
+                    n.dot(&ret.point.coords) < 0.0,
+                    "{n} faces away from {}",
+                    ret.point
+                );
+            }
+        }
+        // 12 revolutions of 750 beams, 5 % of them spurious: about 450 ± 21.
+        assert!(
+            unknown.contains(&without),
+            "{without} returns without normal"
+        );
+    }
 }

@@ -1,13 +1,14 @@
-//! One registration per variant on fixed marina pairs (a synthetic pair when the data is
-//! absent, said on the terminal), the four paper variants of each pair with and without a
-//! shared workspace, and the scaling of one HD_ICP registration with scan size.
+//! One registration per built-in variant on fixed marina pairs (a synthetic pair when the
+//! data is absent, said on the terminal), with the scans' surface estimates made beforehand as
+//! the runner does; the surface estimates themselves; a registration in a fresh and in a
+//! reused workspace; and the scaling of one HD_ICP registration with scan size.
 //!
 //!   ICP_DATA_DIR=/path/to/datasets cargo bench -p eval --bench variants
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use datasets::synthetic::{generate, ScannerConfig, Scenario};
-use icp_core::variants::{builtin, builtin_names, VariantConfig};
-use icp_core::{Scan, Workspace};
+use icp_core::variants::{builtin, builtins};
+use icp_core::{Prepared, Registrar, Scan, SurfaceParams, Surfaces, Workspace};
 use nalgebra::Isometry2;
 
 fn pairs() -> (String, Vec<(Scan, Scan)>) {
@@ -36,19 +37,38 @@ fn pairs() -> (String, Vec<(Scan, Scan)>) {
     }
 }
 
+/// Each pair with both scans' surface estimates (the built-in variants share one parameter set).
+fn prepared(pairs: &[(Scan, Scan)]) -> Vec<(Surfaces, Surfaces)> {
+    let params = SurfaceParams::default();
+    pairs
+        .iter()
+        .map(|(s, r)| {
+            (
+                Surfaces::estimate(s, &params),
+                Surfaces::estimate(r, &params),
+            )
+        })
+        .collect()
+}
+
 fn variants(c: &mut Criterion) {
     let (source, pairs) = pairs();
+    let surfaces = prepared(&pairs);
     let mut group = c.benchmark_group(format!("register/{source}"));
-    for name in builtin_names() {
-        let reg = builtin(name, &VariantConfig::default())
-            .expect("built in")
-            .build()
-            .expect("valid");
-        group.bench_function(name, |b| {
+    for spec in builtins() {
+        let reg = spec.build().expect("valid");
+        assert_eq!(reg.surface_params(), SurfaceParams::default());
+        let mut workspace = Workspace::default();
+        group.bench_function(&spec.name, |b| {
             b.iter(|| {
-                for (s, r) in &pairs {
-                    reg.register(s, r, Isometry2::identity())
-                        .expect("registers");
+                for ((s, r), (ss, rs)) in pairs.iter().zip(&surfaces) {
+                    reg.register_prepared(
+                        &mut workspace,
+                        Prepared::new(s, ss),
+                        Prepared::new(r, rs),
+                        Isometry2::identity(),
+                    )
+                    .expect("registers");
                 }
             })
         });
@@ -56,41 +76,41 @@ fn variants(c: &mut Criterion) {
     group.finish();
 }
 
-/// The paper's four variants on each pair, as the runner does (one workspace: the first
-/// variant's preparation is shared) and one registration at a time (a fresh workspace each).
-fn shared_pair(c: &mut Criterion) {
+/// The surface estimates of one scan: made once per scan and shared by every variant.
+fn surfaces(c: &mut Criterion) {
     let (source, pairs) = pairs();
-    let regs: Vec<_> = ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"]
-        .iter()
-        .map(|n| {
-            builtin(n, &VariantConfig::default())
-                .expect("built in")
-                .build()
-                .expect("valid")
+    let params = SurfaceParams::default();
+    c.bench_function(&format!("surfaces/{source}"), |b| {
+        b.iter(|| {
+            for (s, _) in &pairs {
+                Surfaces::estimate(s, &params);
+            }
         })
-        .collect();
-    let mut group = c.benchmark_group(format!("four_variants/{source}"));
-    group.bench_function("one_workspace", |b| {
+    });
+}
+
+/// HD_ICP on each pair with a reused workspace (as the runner does) and with a fresh one.
+fn workspace(c: &mut Criterion) {
+    let (source, pairs) = pairs();
+    let surfaces = prepared(&pairs);
+    let reg = builtin("HD_ICP").expect("built in").build().expect("valid");
+    let mut group = c.benchmark_group(format!("workspace/{source}"));
+    let run = |workspace: &mut Workspace| {
+        for ((s, r), (ss, rs)) in pairs.iter().zip(&surfaces) {
+            reg.register_prepared(
+                workspace,
+                Prepared::new(s, ss),
+                Prepared::new(r, rs),
+                Isometry2::identity(),
+            )
+            .expect("registers");
+        }
+    };
+    group.bench_function("reused", |b| {
         let mut workspace = Workspace::default();
-        b.iter(|| {
-            for (s, r) in &pairs {
-                for reg in &regs {
-                    reg.register_in(&mut workspace, s, r, Isometry2::identity())
-                        .expect("registers");
-                }
-            }
-        })
+        b.iter(|| run(&mut workspace))
     });
-    group.bench_function("fresh_workspaces", |b| {
-        b.iter(|| {
-            for (s, r) in &pairs {
-                for reg in &regs {
-                    reg.register(s, r, Isometry2::identity())
-                        .expect("registers");
-                }
-            }
-        })
-    });
+    group.bench_function("fresh", |b| b.iter(|| run(&mut Workspace::default())));
     group.finish();
 }
 
@@ -107,10 +127,7 @@ fn scaling(c: &mut Criterion) {
             ..Scenario::paper()
         };
         let ds = generate(&scenario).expect("synthetic pair");
-        let reg = builtin("HD_ICP", &VariantConfig::default())
-            .expect("built in")
-            .build()
-            .expect("valid");
+        let reg = builtin("HD_ICP").expect("built in").build().expect("valid");
         let n = ds.scans[0].len();
         group.bench_with_input(BenchmarkId::from_parameter(n), &ds, |b, ds| {
             b.iter(|| {
@@ -122,5 +139,5 @@ fn scaling(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, variants, shared_pair, scaling);
+criterion_group!(benches, variants, surfaces, workspace, scaling);
 criterion_main!(benches);

@@ -9,11 +9,9 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::compare::{compare, compare_md, CompareOptions};
-use eval::report::{build, EvalSetup, OffsetChoice};
-use eval::runner::run_all;
-use icp_core::variants::{builtin, VariantConfig};
+use eval::{evaluate, EvalSetup, OffsetChoice};
+use icp_core::variants::builtin;
 use icp_core::weighting::{PairView, PairWeighting};
-use icp_core::Registrar;
 use indicatif::ProgressBar;
 
 /// `w = 1 / (s + |r_k − r_k+1|)`, s in metres.
@@ -29,29 +27,24 @@ impl PairWeighting for RangeAgreement {
 
 fn main() -> anyhow::Result<()> {
     let ds = generate(&Scenario::marina_like())?;
-    let (pairs, skipped) = ds.consecutive_pairs();
-    let hd_spec = builtin("HD_ICP", &VariantConfig::default()).expect("built in");
     let mine = icp_core::variants::h_icp()
         .with_weighting(RangeAgreement { softening_m: 0.5 })
         .named("RA_ICP");
-    let registrars: Vec<Box<dyn Registrar>> = vec![hd_spec.build()?, Box::new(mine)];
-    let runs = run_all(&ds, &pairs, &registrars, &ProgressBar::hidden());
-    // The report only needs specs for its provenance: describe RA_ICP as H_ICP renamed.
-    let mut ra_spec = builtin("H_ICP", &VariantConfig::default()).expect("built in");
-    ra_spec.name = "RA_ICP".into();
-    ra_spec.source = Some(
-        "eval/examples/custom_weighting.rs: range-agreement weights (not a built-in stage)".into(),
-    );
+    // The runner takes any registrar; the report describes each by its own spec, so RA_ICP
+    // shows H_ICP's stages with its weighting named by its Rust type.
     let setup = EvalSetup {
-        variants: vec![hd_spec, ra_spec],
+        variants: vec![
+            Box::new(builtin("HD_ICP").expect("built in").build()?),
+            Box::new(mine),
+        ],
         offset: OffsetChoice::Fixed(0),
     };
-    let report = build(&ds, &pairs, skipped, &setup, &runs);
-    for v in &report.variants {
+    let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
+    for (v, spec) in report.variants.iter().zip(&report.config.variants) {
         let e = v.plausible_reference.sog_err_mps.expect("registered pairs");
         println!(
-            "{:7} SOG error std {:.4} m/s, median |e| {:.4} m/s",
-            v.name, e.std, e.median_abs
+            "{:7} SOG error std {:.4} m/s, median |e| {:.4} m/s (weighting: {})",
+            v.name, e.std, e.median_abs, spec.weighting
         );
     }
     let options = CompareOptions::default();

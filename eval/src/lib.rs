@@ -9,11 +9,13 @@
 use std::path::{Path, PathBuf};
 
 use datasets::{Dataset, DatasetError};
-use icp_core::IcpError;
+use icp_core::{ConfigError, IcpError};
 use indicatif::ProgressBar;
 
+pub mod bound;
 pub mod compare;
 pub mod gate;
+pub mod listing;
 pub mod output;
 pub mod plots;
 pub mod published;
@@ -47,6 +49,9 @@ pub enum EvalError {
     Dataset(#[from] DatasetError),
     /// A variant could not be built.
     #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A registration input was refused.
+    #[error(transparent)]
     Icp(#[from] IcpError),
     /// The dataset has no pair of consecutive scans at all.
     #[error("{dataset} has {scans} scan(s): no pair of consecutive scans to register")]
@@ -66,13 +71,8 @@ pub fn evaluate(
             scans: ds.scans.len(),
         });
     }
-    let registrars = setup
-        .variants
-        .iter()
-        .map(|v| v.build())
-        .collect::<Result<Vec<_>, _>>()?;
-    progress.set_length((registrars.len() * pairs.len()) as u64);
-    let runs = runner::run_all(ds, &pairs, &registrars, progress);
+    progress.set_length((setup.variants.len() * pairs.len()) as u64);
+    let runs = runner::run_all(ds, &pairs, &setup.variants, progress);
     progress.finish_and_clear();
     Ok(report::build(ds, &pairs, skipped, setup, &runs))
 }

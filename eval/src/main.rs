@@ -11,9 +11,9 @@ use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::report::RunReport;
 use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice};
-use icp_core::matching::MatcherKind;
+use icp_core::matching::MATCHERS;
 use icp_core::variants::{
-    builtin, builtin_names, table1, SelectionKind, VariantConfig, VariantSpec, TABLE1,
+    builtin, builtin_names, builtins, section_docs, stage_families, table1, VariantSpec, TABLE1,
 };
 use icp_core::SensorModel;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -123,27 +123,27 @@ struct DataArgs {
 
 #[derive(Args)]
 struct VariantArgs {
-    /// Built-in variants, comma-separated (K_ICP, H_ICP, HM_ICP, HD_ICP, IR_ICP). Default:
-    /// the four of Table 1, or none when --config is given.
+    /// Built-in variants, comma-separated (listed below and by `icp-eval list`). Default: the
+    /// four of Table 1, or none when --config is given.
     #[arg(long, value_delimiter = ',')]
     variants: Option<Vec<String>>,
     /// Variants from a JSON or TOML file: one variant spec, or `variants = [...]`. Taken as
     /// written (the options below apply to the built-in variants only). Repeatable.
     #[arg(long)]
     config: Vec<PathBuf>,
-    /// Nearest-neighbour matcher: grid, kdtree, delaunay or brute (all exact).
-    #[arg(long, default_value_t = MatcherKind::Grid)]
-    matcher: MatcherKind,
-    /// Bearing standard deviation of the sensor model behind the HM/HD weights, degrees
-    /// (default: the dataset's model; the data itself is not changed).
+    /// Nearest-neighbour matcher of the built-in variants (a kind listed below; all exact).
+    #[arg(long)]
+    matcher: Option<String>,
+    /// Bearing standard deviation of the sensor model behind the weights and metrics that use
+    /// it, degrees (default: the dataset's model; the data itself is not changed).
     #[arg(long)]
     sigma_alpha_deg: Option<f64>,
-    /// Factor c of the Huber threshold c · median.
-    #[arg(long, default_value_t = icp_core::robust::MedianScaled::PAPER_C)]
-    huber_c: f64,
-    /// Seed of the point selection.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
+    /// Factor c of the robust threshold c · median of the built-in variants that reject.
+    #[arg(long)]
+    huber_c: Option<f64>,
+    /// Seed of the random selection of the built-in variants that select at random.
+    #[arg(long)]
+    seed: Option<u64>,
 }
 
 #[derive(Args)]
@@ -220,19 +220,48 @@ struct SynthArgs {
     /// Take each beam at its own time within the revolution.
     #[arg(long)]
     motion_distortion: bool,
-    /// Output directory (scans.csv, poses.csv, dataset.json).
+    /// Output directory (scans.csv with each return's true surface normal, poses.csv,
+    /// dataset.json).
     #[arg(long)]
     out: PathBuf,
 }
 
 fn main() -> ExitCode {
-    match run(Cli::parse()) {
+    let parsed = cli_command()
+        .try_get_matches()
+        .and_then(|m| <Cli as clap::FromArgMatches>::from_arg_matches(&m));
+    let cli = match parsed {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    match run(cli) {
         Ok(code) => code,
         Err(e) => {
             eprintln!("error: {}", message(&e));
             ExitCode::from(2)
         }
     }
+}
+
+/// The command line, with the help of the variant options generated from the registered
+/// variants and matchers (so it cannot go stale).
+fn cli_command() -> clap::Command {
+    let variants = format!(
+        "Built-in variants, comma-separated: {}. Default: the four of Table 1, or none when \
+         --config is given",
+        builtin_names().join(", ")
+    );
+    let matchers = format!(
+        "Nearest-neighbour matcher of the built-in variants: {} (all exact)",
+        MATCHERS.names().join(", ")
+    );
+    let patch = |c: clap::Command| {
+        c.mut_arg("variants", |a| a.help(variants.clone()))
+            .mut_arg("matcher", |a| a.help(matchers.clone()))
+    };
+    <Cli as clap::CommandFactory>::command()
+        .mut_subcommand("run", patch)
+        .mut_subcommand("compare", patch)
 }
 
 /// The error and its causes, each said once: our errors already print their cause.
@@ -301,10 +330,7 @@ fn evaluate_and_write(
 }
 
 fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
-    let setup = EvalSetup {
-        variants: table1(&VariantConfig::default()),
-        offset: OffsetChoice::Fixed(0),
-    };
+    let setup = EvalSetup::from_specs(&table1(), OffsetChoice::Fixed(0))?;
     match marina::find_data_dir(args.data_dir.as_deref()) {
         Ok(dir) => {
             let ds = marina::load(&dir, &marina::MarinaOptions::default())
@@ -359,19 +385,23 @@ fn read_variants_file(path: &Path) -> Result<Vec<VariantSpec>> {
     Ok(specs)
 }
 
+/// `spec` with the parameter at `path` set to `value` when it has one.
+fn set_param(spec: VariantSpec, path: &str, value: serde_json::Value) -> Result<VariantSpec> {
+    Ok(spec
+        .with_param(path, value)
+        .with_context(|| format!("variant {}", spec.name))?
+        .unwrap_or(spec))
+}
+
 fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>> {
     let mut sensor = ds.sensor;
     if let Some(deg) = args.sigma_alpha_deg {
         sensor.sigma_alpha_rad = deg.to_radians();
         sensor.validate().context("--sigma-alpha-deg")?;
     }
-    let config = VariantConfig {
-        sensor,
-        matcher: args.matcher,
-        selection: SelectionKind::EqualCount { seed: args.seed },
-        huber_c: args.huber_c,
-        ..VariantConfig::default()
-    };
+    if let Some(m) = &args.matcher {
+        MATCHERS.find(m).context("--matcher")?;
+    }
     let names: Vec<String> = match &args.variants {
         Some(v) => v.clone(),
         None if args.config.is_empty() => TABLE1.iter().map(|s| s.to_string()).collect(),
@@ -379,10 +409,24 @@ fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>
     };
     let mut specs = Vec::new();
     for n in &names {
-        let known = builtin_names().collect::<Vec<_>>().join(", ");
-        specs.push(builtin(n, &config).with_context(|| {
-            format!("unknown variant {n:?}: expected one of {known}, or --config FILE")
-        })?);
+        let mut spec = builtin(n).with_context(|| {
+            format!(
+                "unknown variant {n:?}: expected one of {}, or --config FILE",
+                builtin_names().join(", ")
+            )
+        })?;
+        // The shared options apply to the built-in variants, where they have the parameter.
+        spec.sensor = sensor;
+        if let Some(m) = &args.matcher {
+            spec = set_param(spec, "matcher.kind", m.as_str().into())?;
+        }
+        if let Some(c) = args.huber_c {
+            spec = set_param(spec, "robust.c", c.into())?;
+        }
+        if let Some(seed) = args.seed {
+            spec = set_param(spec, "selection.seed", seed.into())?;
+        }
+        specs.push(spec);
     }
     for path in &args.config {
         specs.extend(read_variants_file(path)?);
@@ -402,10 +446,10 @@ fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>
 
 fn run_one(args: RunArgs) -> Result<ExitCode> {
     let ds = load_dataset(&args.data)?;
-    let setup = EvalSetup {
-        variants: resolve_variants(&args.variants, &ds)?,
-        offset: args.reference_offset,
-    };
+    let setup = EvalSetup::from_specs(
+        &resolve_variants(&args.variants, &ds)?,
+        args.reference_offset,
+    )?;
     let report = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -415,10 +459,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let run = &args.run;
     let ds = load_dataset(&run.data)?;
     let variants = resolve_variants(&run.variants, &ds)?;
-    let setup = EvalSetup {
-        variants: variants.clone(),
-        offset: run.reference_offset,
-    };
+    let setup = EvalSetup::from_specs(&variants, run.reference_offset)?;
     let report = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,
@@ -520,11 +561,11 @@ fn write_md_json(dir: &Path, stem: &str, md: &str, value: &impl serde::Serialize
 }
 
 fn scaling(args: ScalingArgs) -> Result<ExitCode> {
-    let spec = builtin(&args.variant, &VariantConfig::default()).with_context(|| {
-        let known = builtin_names().collect::<Vec<_>>().join(", ");
+    let spec = builtin(&args.variant).with_context(|| {
         format!(
-            "unknown variant {:?}: expected one of {known}",
-            args.variant
+            "unknown variant {:?}: expected one of {}",
+            args.variant,
+            builtin_names().join(", ")
         )
     })?;
     let result = eval::scaling::measure(&spec, &args.beams, args.budget_s)?;
@@ -538,18 +579,10 @@ fn scaling(args: ScalingArgs) -> Result<ExitCode> {
 }
 
 fn list() -> Result<ExitCode> {
-    println!("Built-in variants (icp-eval run --variants NAME,...):");
-    for name in builtin_names() {
-        let spec = builtin(name, &VariantConfig::default()).expect("listed names are built in");
-        println!("  {name:8} {}", spec.source.unwrap_or_default());
-    }
-    println!("\nStages a variants file can name (see configs/variants/*.json):");
-    println!("  weighting.kind: uniform | mean_error (eq. 13) | directional (eq. 12) | inverse_range {{r0_m}}");
-    println!("  robust.kind:    none | median_scaled {{kernel: huber | tukey | cauchy | geman_mcclure, c}}");
-    println!("  matcher:        grid | kdtree | delaunay | brute");
-    println!("  selection.kind: all | equal_count {{seed}}");
-    println!("  sensor:         {{sigma_r_const_m, sigma_r_per_m, sigma_alpha_rad}}");
-    println!("  termination:    {{max_iterations, mean_dist_change_eps_m}}");
+    print!(
+        "{}",
+        eval::listing::listing(&builtins(), &stage_families(), &section_docs())
+    );
     Ok(ExitCode::SUCCESS)
 }
 

@@ -541,7 +541,7 @@ impl Figure for SweepFigure<'_> {
     }
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
         root.fill(&WHITE).map_err(err)?;
-        let name = self.result.param.name();
+        let name = &self.result.param.name;
         let title = format!("Error spread against {name} (pairs with a plausible reference)");
         let root = root.titled(&title, (FONT, 22)).map_err(err)?;
         let mut variants: Vec<&str> = Vec::new();

@@ -4,16 +4,17 @@
 use datasets::{Dataset, FileProvenance, ScanPair, SkippedPair};
 use icp_core::motion::{wrap_deg, MovementParams};
 use icp_core::variants::VariantSpec;
-use icp_core::BearingSense;
+use icp_core::{BearingSense, ConfigError, Registrar};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
+use crate::bound::{self, BoundSummary, OverBound, PairBound};
 use crate::reference::{self, FlaggedStep, OffsetEstimate};
 use crate::runner::{PairRun, Runs};
 use crate::stats::{median_p95, Stats};
 
 /// Version of the `summary.json` layout; bump it when a field changes meaning or goes away.
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// How the reference is aligned in time with the scans.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -56,12 +57,14 @@ pub struct PairRecord {
     pub converged: bool,
     /// Minimisation steps.
     pub iterations: usize,
-    /// Pairs in the last step.
+    /// Pairs the metric used at the solution.
     pub n_pairs: usize,
+    /// Pairs the metric could not use at the solution (no surface estimate, beyond its gate).
+    pub n_unusable: usize,
     /// Sum of the final weights.
     pub weight_sum: Option<f64>,
-    /// Final mean pair distance, m.
-    pub mean_dist_m: Option<f64>,
+    /// Final mean residual of the metric, m (the pair distance for point-to-point).
+    pub mean_residual_m: Option<f64>,
     /// Registered `t_ref_src`: translation x, m.
     pub tx_m: Option<f64>,
     /// Registered `t_ref_src`: translation y, m.
@@ -89,14 +92,20 @@ pub struct PairRecord {
     /// Rotation error of `t_ref_src`, degrees, where the reference is a rigid 2D pose.
     pub rot_err_deg: Option<f64>,
     /// Conditioning of the registration: smallest over largest eigenvalue of its Hessian
-    /// (below `icp_core::icp::DEGENERATE_RATIO` the pair is flagged `degenerate`).
+    /// (below `icp_core::quality::DEGENERATE_RATIO` the pair is flagged `degenerate`).
     pub cond_ratio: Option<f64>,
-    /// Fraction of the final pairs closer than `icp_core::icp::OVERLAP_GATE_M` (below
-    /// `icp_core::icp::MIN_OVERLAP` the pair is flagged `no overlap`).
+    /// Fraction of the final pairs closer than `icp_core::quality::OVERLAP_GATE_M` (below
+    /// `icp_core::quality::MIN_OVERLAP` the pair is flagged `no overlap`).
     pub overlap: Option<f64>,
+    /// The pair's Cramér–Rao bound (see [`crate::bound`]): square root of the trace of its
+    /// translation block, m; empty where the dataset has no true normals or the motion is
+    /// unobservable in some direction.
+    pub bound_trans_m: Option<f64>,
+    /// The bound's rotation standard deviation, degrees.
+    pub bound_rot_deg: Option<f64>,
     /// False when the reference step is flagged as implausible (or absent).
     pub ref_plausible: bool,
-    /// Wall time of the registration after its pair's shared preparation, µs (not
+    /// Wall time of the registration, its scans' surface estimates aside, µs (not
     /// reproducible; last column so checks can drop it).
     pub time_us: f64,
 }
@@ -176,6 +185,10 @@ pub struct VariantSummary {
     pub plausible_reference: ErrorStats,
     /// The chained trajectory.
     pub trajectory: TrajectoryStats,
+    /// Translation and rotation RMSE as multiples of the Cramér–Rao bound over the registered
+    /// pairs that have one (synthetic data with true normals).
+    #[serde(default)]
+    pub over_bound: Option<OverBound>,
     /// Wall time per registration.
     pub timing: Option<Timing>,
 }
@@ -244,10 +257,14 @@ pub struct RunReport {
     pub config: RunConfig,
     /// The reference.
     pub reference: ReferenceInfo,
+    /// The Cramér–Rao bound over the pairs, where the dataset records true normals.
+    #[serde(default)]
+    pub bound: Option<BoundSummary>,
     /// One summary per variant, in run order.
     pub variants: Vec<VariantSummary>,
-    /// Wall time per pair of the work its variants share (selection, reference index and first
-    /// matching), done once before their registrations; each variant's `timing` leaves it out.
+    /// Wall time per scan of its surface estimates (normals and covariances), made once and
+    /// shared by every variant and both pairs that use the scan; each variant's `timing` leaves
+    /// it out.
     #[serde(default)]
     pub preparation: Option<Timing>,
     /// One record per variant and pair (written to `pairs.csv`, not to `summary.json`).
@@ -259,12 +276,25 @@ pub struct RunReport {
 }
 
 /// What to evaluate.
-#[derive(Clone, Debug)]
 pub struct EvalSetup {
-    /// Variants, in order.
-    pub variants: Vec<VariantSpec>,
+    /// The registration methods, in order: built-in or configured chains, or written in user
+    /// code (each reports what it is through [`Registrar::spec`]).
+    pub variants: Vec<Box<dyn Registrar>>,
     /// Reference time alignment.
     pub offset: OffsetChoice,
+}
+
+impl EvalSetup {
+    /// The chains `specs` describe, built, with the reference alignment `offset`.
+    pub fn from_specs(specs: &[VariantSpec], offset: OffsetChoice) -> Result<Self, ConfigError> {
+        Ok(Self {
+            variants: specs
+                .iter()
+                .map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
+                .collect::<Result<_, ConfigError>>()?,
+            offset,
+        })
+    }
 }
 
 /// Builds the report from the runs.
@@ -309,7 +339,7 @@ pub fn build(
     let pivot = setup
         .variants
         .iter()
-        .position(|v| v.name == "HD_ICP")
+        .position(|v| v.name() == "HD_ICP")
         .unwrap_or(setup.variants.len().saturating_sub(1));
     let series = |f: &dyn Fn(&MovementParams) -> f64| -> Vec<f64> {
         estimates.get(pivot).map_or(Vec::new(), |e| {
@@ -351,6 +381,7 @@ pub fn build(
         .map(|i| ds.reference.is_some() && !flagged.iter().any(|f| f.pair == i))
         .collect();
 
+    let bounds = bound::pair_bounds(ds, pairs, &ref0);
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();
@@ -358,19 +389,20 @@ pub fn build(
         let mut rows = Vec::with_capacity(pairs.len());
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
-                &variant.name,
+                variant.name(),
                 i,
                 *pair,
                 dts[i],
                 run,
                 estimates[vi][i],
                 refs[i],
+                bounds[i],
                 plausible[i],
             ));
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
         summaries.push(summarize(
-            &variant.name,
+            variant.name(),
             &rows,
             &runs[vi],
             ds,
@@ -394,7 +426,7 @@ pub fn build(
             reference_heading_sense: ds.reference_heading_sense,
         },
         config: RunConfig {
-            variants: setup.variants.clone(),
+            variants: setup.variants.iter().map(|v| v.spec()).collect(),
         },
         reference: ReferenceInfo {
             available: ds.reference.is_some(),
@@ -405,10 +437,11 @@ pub fn build(
             offset_estimate,
             offset_choice: setup.offset,
             offset_applied_scans: applied,
-            offset_from_variant: setup.variants.get(pivot).map(|v| v.name.clone()),
+            offset_from_variant: setup.variants.get(pivot).map(|v| v.name().to_owned()),
             plausible_pairs: plausible.iter().filter(|&&p| p).count(),
             flagged_pairs: flagged,
         },
+        bound: bound::summarize(&bounds),
         variants: summaries,
         preparation: median_p95(&all_runs.prepare_us)
             .map(|(median_us, p95_us)| Timing { median_us, p95_us }),
@@ -426,6 +459,7 @@ fn record(
     run: &PairRun,
     est: Option<MovementParams>,
     reference: Option<reference::RefMotion>,
+    bound: Option<PairBound>,
     plausible: bool,
 ) -> PairRecord {
     let reg = run.result.as_ref().ok();
@@ -450,14 +484,14 @@ fn record(
             Ok(r) if r.no_overlap() => format!(
                 "no overlap: {:.0} % of the pairs within {} m (< {:.0} %)",
                 100.0 * r.overlap,
-                icp_core::icp::OVERLAP_GATE_M,
-                100.0 * icp_core::icp::MIN_OVERLAP
+                icp_core::quality::OVERLAP_GATE_M,
+                100.0 * icp_core::quality::MIN_OVERLAP
             ),
             Ok(r) => match r.conditioning {
                 Some(c) if c.degenerate() => format!(
                     "degenerate: conditioning ratio {:.1e} < {}",
                     c.ratio,
-                    icp_core::icp::DEGENERATE_RATIO
+                    icp_core::quality::DEGENERATE_RATIO
                 ),
                 _ => "ok".into(),
             },
@@ -466,8 +500,9 @@ fn record(
         converged: reg.is_some_and(|r| r.converged()),
         iterations: reg.map_or(0, |r| r.iterations),
         n_pairs: reg.map_or(0, |r| r.n_pairs),
+        n_unusable: reg.map_or(0, |r| r.n_unusable),
         weight_sum: reg.map(|r| r.weight_sum),
-        mean_dist_m: reg.map(|r| r.mean_dist_m),
+        mean_residual_m: reg.map(|r| r.mean_residual_m),
         tx_m: reg.map(|r| r.t_ref_src.translation.x),
         ty_m: reg.map(|r| r.t_ref_src.translation.y),
         theta_deg: reg.map(|r| r.t_ref_src.rotation.angle().to_degrees()),
@@ -483,6 +518,8 @@ fn record(
         overlap: reg.map(|r| r.overlap),
         trans_err_m: truth_err.map(|e| e.0),
         rot_err_deg: truth_err.map(|e| e.1),
+        bound_trans_m: bound.and_then(|b| b.trans_m()),
+        bound_rot_deg: bound.and_then(|b| b.rot_deg()),
         ref_plausible: plausible,
         time_us: run.time_us,
     }
@@ -542,6 +579,13 @@ fn summarize(
         degenerate_pairs: flagged(rows, "degenerate"),
         no_overlap_pairs: flagged(rows, "no overlap"),
         trajectory: trajectory_stats(ds, pairs, traj, failures.len()),
+        over_bound: OverBound::of(ok.iter().filter_map(|r| {
+            let bound = PairBound::Bounded {
+                trans_m: r.bound_trans_m?,
+                rot_deg: r.bound_rot_deg?,
+            };
+            Some((r.trans_err_m?, r.rot_err_deg?, bound))
+        })),
         timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         failures,
     }

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use datasets::synthetic::{generate, ScannerConfig, Scenario};
 use icp_core::variants::VariantSpec;
-use icp_core::IcpError;
+use icp_core::{IcpError, Registrar};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
@@ -125,11 +125,11 @@ pub fn scaling_md(result: &ScalingResult) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use icp_core::variants::{builtin, VariantConfig};
+    use icp_core::variants::builtin;
 
     #[test]
     fn sizes_are_measured_in_order_and_zero_beams_is_an_error() {
-        let spec = builtin("K_ICP", &VariantConfig::default()).unwrap();
+        let spec = builtin("K_ICP").unwrap();
         let r = measure(&spec, &[60, 200], 0.0).unwrap();
         assert_eq!(r.variant, "K_ICP");
         let beams: Vec<usize> = r.points.iter().map(|p| p.beams).collect();

@@ -40,7 +40,7 @@ impl Stats {
                 0.0f64,
                 |best, v| if v.abs() > best.abs() { v } else { best },
             );
-        let rmse = (values.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+        let rmse = rms(values);
         let mut abs: Vec<f64> = values.iter().map(|v| v.abs()).collect();
         abs.sort_by(f64::total_cmp);
         Some(Stats {
@@ -53,6 +53,11 @@ impl Stats {
             p95_abs: quantile_sorted(&abs, 0.95),
         })
     }
+}
+
+/// Root mean square of `values` (NaN when empty).
+pub fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
 }
 
 /// Quantile `q` in [0, 1] of ascending `sorted` values, interpolating linearly between order

@@ -2,44 +2,69 @@
 //! error spread moves.
 
 use datasets::Dataset;
-use icp_core::variants::{RobustSpec, VariantSpec};
+use icp_core::variants::VariantSpec;
+use icp_core::ConfigError;
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 
 use crate::report::{EvalSetup, OffsetChoice};
 use crate::{evaluate, EvalError};
 
-/// The parameters a sweep can vary.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SweepParam {
-    /// Bearing standard deviation of the weights' sensor model, degrees.
-    SigmaAlphaDeg,
-    /// Factor `c` of the median-scaled robust threshold (variants without rejection keep none).
-    HuberC,
+/// The parameter a sweep varies: any `section.parameter` of a variant's configuration (e.g.
+/// `robust.c`, `sensor.sigma_r_per_m`, `surfaces.radius_m`), or one of two names in the
+/// paper's units: `sigma_alpha_deg` (the bearing error of the weights' sensor model, degrees)
+/// and `huber_c` (`robust.c`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(into = "String", try_from = "String")]
+pub struct SweepParam {
+    /// Name as written on the command line.
+    pub name: String,
+    /// Its path in a variant's configuration.
+    pub path: String,
+    /// Factor from the written value to the configuration's unit.
+    pub scale: f64,
 }
 
 impl SweepParam {
-    /// Name as written on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            SweepParam::SigmaAlphaDeg => "sigma_alpha_deg",
-            SweepParam::HuberC => "huber_c",
-        }
+    /// The parameter written `name`.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        let (path, scale) = match name {
+            "sigma_alpha_deg" => ("sensor.sigma_alpha_rad", std::f64::consts::PI / 180.0),
+            "huber_c" => ("robust.c", 1.0),
+            other if other.contains('.') => (other, 1.0),
+            other => {
+                return Err(format!(
+                    "unknown sweep parameter {other:?}: expected sigma_alpha_deg, huber_c or \
+                     section.parameter (e.g. robust.c)"
+                ))
+            }
+        };
+        Ok(Self {
+            name: name.to_owned(),
+            path: path.to_owned(),
+            scale,
+        })
     }
 
-    /// `spec` with the parameter set to `value`.
-    pub fn apply(self, spec: &VariantSpec, value: f64) -> VariantSpec {
-        let mut s = spec.clone();
-        match self {
-            SweepParam::SigmaAlphaDeg => s.sensor.sigma_alpha_rad = value.to_radians(),
-            SweepParam::HuberC => {
-                if let RobustSpec::MedianScaled { c, .. } = &mut s.robust {
-                    *c = value;
-                }
-            }
-        }
-        s
+    /// `spec` with the parameter set to `value` (unchanged when the variant has no such
+    /// parameter, e.g. `robust.c` without rejection).
+    pub fn apply(&self, spec: &VariantSpec, value: f64) -> Result<VariantSpec, ConfigError> {
+        Ok(spec
+            .with_param(&self.path, (value * self.scale).into())?
+            .unwrap_or_else(|| spec.clone()))
+    }
+}
+
+impl From<SweepParam> for String {
+    fn from(p: SweepParam) -> String {
+        p.name
+    }
+}
+
+impl TryFrom<String> for SweepParam {
+    type Error = String;
+    fn try_from(name: String) -> Result<Self, String> {
+        Self::parse(&name)
     }
 }
 
@@ -48,15 +73,7 @@ pub fn parse_sweep(text: &str) -> Result<(SweepParam, Vec<f64>), String> {
     let (name, values) = text
         .split_once('=')
         .ok_or_else(|| format!("expected NAME=v1,v2,... in {text:?}"))?;
-    let param = match name.trim() {
-        "sigma_alpha_deg" => SweepParam::SigmaAlphaDeg,
-        "huber_c" => SweepParam::HuberC,
-        other => {
-            return Err(format!(
-                "unknown sweep parameter {other:?}: expected sigma_alpha_deg or huber_c"
-            ))
-        }
-    };
+    let param = SweepParam::parse(name.trim())?;
     let values = values
         .split(',')
         .map(|v| {
@@ -107,10 +124,11 @@ pub fn sweep(
 ) -> Result<SweepResult, EvalError> {
     let mut points = Vec::new();
     for &value in values {
-        let setup = EvalSetup {
-            variants: variants.iter().map(|v| param.apply(v, value)).collect(),
-            offset: OffsetChoice::Fixed(0),
-        };
+        let specs = variants
+            .iter()
+            .map(|v| param.apply(v, value))
+            .collect::<Result<Vec<_>, _>>()?;
+        let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))?;
         let report = evaluate(ds, &setup, progress)?;
         for v in &report.variants {
             let e = &v.plausible_reference;
@@ -133,9 +151,9 @@ pub fn sweep_md(result: &SweepResult) -> String {
     let cell = |v: Option<f64>, d: usize| v.map_or("–".to_owned(), |v| format!("{v:.d$}"));
     let mut s = format!(
         "# Sweep of {} (pairs with a plausible reference)\n\n",
-        result.param.name()
+        result.param.name
     );
-    let _ = writeln!(s, "| {} | variant | SOG std (m/s) | SOG median \\|e\\| (m/s) | ΔCOG std (°) | ΔCOG median \\|e\\| (°) |", result.param.name());
+    let _ = writeln!(s, "| {} | variant | SOG std (m/s) | SOG median \\|e\\| (m/s) | ΔCOG std (°) | ΔCOG median \\|e\\| (°) |", result.param.name);
     let _ = writeln!(s, "| ---: | --- | ---: | ---: | ---: | ---: |");
     for p in &result.points {
         let _ = writeln!(

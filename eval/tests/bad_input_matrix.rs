@@ -14,7 +14,7 @@ use datasets::marina::{self, MarinaOptions};
 use datasets::matv5::write_doubles;
 use datasets::synthetic::{generate, Scenario};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{builtin, hd_icp, VariantConfig};
+use icp_core::variants::{builtin, hd_icp};
 use icp_core::{Registrar, Scan, SensorModel};
 use indicatif::ProgressBar;
 use nalgebra::{Isometry2, Point2, Vector2};
@@ -230,7 +230,7 @@ fn csv_scans(text: &str) -> String {
 fn csv_empty_file() {
     assert_eq!(
         csv_scans(""),
-        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad)"
+        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y])"
     );
 }
 
@@ -254,7 +254,45 @@ fn csv_infinite_bearing() {
 fn csv_wrong_header() {
     assert_eq!(
         csv_scans("id,t,r,a\n0,0.0,5,0\n"),
-        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad)"
+        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y])"
+    );
+}
+
+#[test]
+fn csv_one_true_normal_column() {
+    assert_eq!(
+        csv_scans("scan,timestamp_s,range_m,bearing_rad,true_normal_x\n0,0.0,5,0,1\n"),
+        "scans.csv:1: column \"true_normal_x\" without \"true_normal_y\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y])"
+    );
+}
+
+#[test]
+fn csv_non_finite_true_normal() {
+    assert_eq!(
+        csv_scans(
+            "scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n0,0.0,5,0,0,1\n0,0.0,6,1,inf,1\n"
+        ),
+        "scans.csv:3: non-finite true_normal_x: inf"
+    );
+}
+
+#[test]
+fn csv_zero_true_normal() {
+    assert_eq!(
+        csv_scans(
+            "scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n0,0.0,5,0,0,-0\n"
+        ),
+        "scans.csv:2: zero-length true normal: true_normal_x and true_normal_y are both 0"
+    );
+}
+
+#[test]
+fn csv_half_a_true_normal() {
+    assert_eq!(
+        csv_scans(
+            "scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n0,0.0,5,0,,0.5\n"
+        ),
+        "scans.csv:2: true_normal_x is empty but true_normal_y is not"
     );
 }
 
@@ -339,14 +377,14 @@ fn all_points_identical() {
 fn two_identical_scans_give_exactly_the_identity() {
     let scan = Scan::from_cartesian(&harbour()).unwrap();
     for name in icp_core::variants::builtin_names() {
-        let reg = builtin(name, &VariantConfig::default())
+        let reg = builtin(&name)
             .unwrap()
             .build()
             .unwrap()
             .register(&scan, &scan, Isometry2::identity())
             .unwrap();
         assert_eq!(reg.t_ref_src, Isometry2::identity(), "{name}");
-        assert_eq!(reg.mean_dist_m, 0.0, "{name}");
+        assert_eq!(reg.mean_residual_m, 0.0, "{name}");
         assert!(reg.converged() && !reg.no_overlap(), "{name}");
     }
 }
@@ -363,7 +401,7 @@ fn huge_coordinates() {
                 .map(|p| [p[0] + offset + dx, p[1] - offset])
                 .collect()
         };
-        let reg = builtin("H_ICP", &VariantConfig::default())
+        let reg = builtin("H_ICP")
             .unwrap()
             .build()
             .unwrap()
@@ -415,10 +453,8 @@ fn run_with_scan_2(scan: Scan) -> eval::RunReport {
     })
     .unwrap();
     ds.scans[2] = scan.with_timestamp(0.4).unwrap();
-    let setup = EvalSetup {
-        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
-        offset: OffsetChoice::Fixed(0),
-    };
+    let setup =
+        EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0)).unwrap();
     evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
 }
 
@@ -447,10 +483,8 @@ fn harness_refuses_a_dataset_without_pairs() {
         "one-scan",
     )
     .unwrap();
-    let setup = EvalSetup {
-        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
-        offset: OffsetChoice::Fixed(0),
-    };
+    let setup =
+        EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0)).unwrap();
     assert_eq!(
         error_of(evaluate(&one_scan, &setup, &ProgressBar::hidden()).map(|r| r.dataset.pairs)),
         "one-scan has 1 scan(s): no pair of consecutive scans to register"

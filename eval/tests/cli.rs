@@ -107,7 +107,7 @@ fn every_output_exists_parses_and_agrees_with_the_csv() {
         .map(|v| v["name"].as_str().unwrap())
         .collect();
     assert_eq!(names, ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"]);
-    assert_eq!(config["variants"][3]["matcher"], "grid");
+    assert_eq!(config["variants"][3]["matcher"]["kind"], "grid");
     assert_eq!(config["variants"][3]["weighting"]["kind"], "directional");
     for stem in [
         "sog_error",
@@ -362,7 +362,8 @@ fn list_names_the_variants_and_bad_configs_exit_2() {
     let o = run_config(&cfg);
     assert_eq!(o.status.code(), Some(2));
     assert!(
-        String::from_utf8_lossy(&o.stderr).contains("robust.c"),
+        String::from_utf8_lossy(&o.stderr)
+            .contains("robust \"median_scaled\": c = -2: must be finite and positive"),
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );

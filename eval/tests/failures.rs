@@ -3,7 +3,7 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{builtin, VariantConfig};
+use icp_core::variants::builtin;
 use icp_core::Scan;
 use indicatif::ProgressBar;
 
@@ -20,13 +20,11 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
         .unwrap()
         .with_timestamp(0.6)
         .unwrap();
-    let setup = EvalSetup {
-        variants: ["H_ICP", "HD_ICP"]
-            .iter()
-            .map(|n| builtin(n, &VariantConfig::default()).unwrap())
-            .collect(),
-        offset: OffsetChoice::Fixed(0),
-    };
+    let specs: Vec<_> = ["H_ICP", "HD_ICP"]
+        .iter()
+        .map(|n| builtin(n).unwrap())
+        .collect();
+    let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0)).unwrap();
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.dataset.pairs, 5);
     for v in &report.variants {
@@ -85,10 +83,8 @@ fn a_corridor_pair_is_flagged_degenerate() {
     };
     ds.scans[2] = corridor(0.0, 0.4);
     ds.scans[3] = corridor(-0.07, 0.6);
-    let setup = EvalSetup {
-        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
-        offset: OffsetChoice::Fixed(0),
-    };
+    let setup =
+        EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0)).unwrap();
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     let v = &report.variants[0];
     // Pair 2 (corridor onto corridor) is matched against the corridor's two walls. Pairs 1
@@ -103,7 +99,7 @@ fn a_corridor_pair_is_flagged_degenerate() {
         "{}",
         row.status
     );
-    assert!(row.cond_ratio.unwrap() < icp_core::icp::DEGENERATE_RATIO);
+    assert!(row.cond_ratio.unwrap() < icp_core::quality::DEGENERATE_RATIO);
     let ratios: Vec<f64> = report.pairs.iter().map(|r| r.cond_ratio.unwrap()).collect();
     assert!(ratios[0] > 0.05 && ratios[3] > 0.05, "{ratios:?}");
     assert_eq!(v.all_pairs.pairs, 1);

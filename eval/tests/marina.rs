@@ -6,16 +6,13 @@ mod common;
 use datasets::marina::{self, MarinaOptions};
 use eval::report::{ErrorStats, VariantSummary};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{table1, VariantConfig};
+use icp_core::variants::table1;
 use indicatif::ProgressBar;
 
 fn marina_report() -> Option<eval::RunReport> {
     let dir = common::marina_dir()?;
     let ds = marina::load(&dir, &MarinaOptions::default()).unwrap();
-    let setup = EvalSetup {
-        variants: table1(&VariantConfig::default()),
-        offset: OffsetChoice::Fixed(0),
-    };
+    let setup = EvalSetup::from_specs(&table1(), OffsetChoice::Fixed(0)).unwrap();
     Some(evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap())
 }
 

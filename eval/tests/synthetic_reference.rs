@@ -3,7 +3,7 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::{evaluate, EvalSetup, OffsetChoice};
-use icp_core::variants::{builtin, VariantConfig};
+use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 
 #[test]
@@ -18,10 +18,8 @@ fn heading_change_follows_the_true_turns() {
         ..Scenario::paper()
     })
     .unwrap();
-    let setup = EvalSetup {
-        variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
-        offset: OffsetChoice::Fixed(0),
-    };
+    let setup =
+        EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0)).unwrap();
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     let est: f64 = report.pairs.iter().map(|r| r.dcog_est_deg.unwrap()).sum();
     let truth: f64 = report.pairs.iter().map(|r| r.dcog_ref_deg.unwrap()).sum();
@@ -92,10 +90,7 @@ fn a_late_reference_is_detected_and_realigned() {
     let r = truth.reference.as_ref().unwrap();
     late.reference = Some((0..r.len()).map(|k| r[k.saturating_sub(2)]).collect());
     let run = |ds: &datasets::Dataset, offset| {
-        let setup = EvalSetup {
-            variants: vec![builtin("HD_ICP", &VariantConfig::default()).unwrap()],
-            offset,
-        };
+        let setup = EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], offset).unwrap();
         evaluate(ds, &setup, &ProgressBar::hidden()).unwrap()
     };
     let aligned = run(&truth, OffsetChoice::Fixed(0));

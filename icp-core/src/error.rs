@@ -55,6 +55,9 @@ pub enum IcpError {
         index: usize,
         value: f64,
     },
+    /// A vector that must have a direction (a surface normal) is zero.
+    #[error("zero-length {what} at index {index}")]
+    ZeroLength { what: &'static str, index: usize },
     /// A range below zero.
     #[error("negative range at index {index}: {value} m")]
     NegativeRange { index: usize, value: f64 },
@@ -87,4 +90,53 @@ pub enum IcpError {
     /// The minimiser produced a non-finite transform.
     #[error("the minimiser produced a non-finite transform")]
     NonFiniteTransform,
+    /// The stages or their parameters are invalid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// The surface estimates handed to a registration are not those of its scan, or were
+    /// made with other parameters than the method's.
+    #[error("the {role} scan's surface estimates {why}")]
+    SurfacesMismatch {
+        /// Which scan.
+        role: ScanRole,
+        /// What does not match.
+        why: &'static str,
+    },
+}
+
+/// A variant's configuration that cannot be built: what is wrong, naming the stage and the
+/// parameter (generated from the registered kinds, see [`crate::registry`]).
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum ConfigError {
+    /// No kind of this name is registered in the family.
+    #[error("unknown {family} kind {kind:?}: expected one of {known}")]
+    UnknownKind {
+        /// The stage family, e.g. `weighting`.
+        family: &'static str,
+        /// The name given.
+        kind: String,
+        /// The registered names.
+        known: String,
+    },
+    /// The kind's parameters do not parse or fail its validation.
+    #[error("{family} {kind:?}: {why}")]
+    BadParameters {
+        /// The stage family.
+        family: &'static str,
+        /// The kind.
+        kind: String,
+        /// What is wrong, naming the parameter.
+        why: String,
+    },
+    /// A parameter of a section that is not a stage (sensor, surfaces, termination).
+    #[error("{section}.{}", .source)]
+    Section {
+        /// The section, e.g. `termination`.
+        section: &'static str,
+        /// The parameter and what is wrong with it.
+        source: crate::registry::ParamError,
+    },
+    /// Two stages that cannot work together.
+    #[error("{0}")]
+    Incompatible(String),
 }

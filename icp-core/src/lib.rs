@@ -4,9 +4,13 @@
 //! The crate does no I/O. Its stages follow Algorithm 1 of the paper, one module each:
 //! [`scan`] (eq. 10), [`sensor`] (eqs. 5, 8, 9), [`select`] (step 1), [`matching`] (step 2),
 //! [`weighting`] (step 3, eqs. 11–13), [`robust`] (step 4, Huber), [`minimize`] (step 5,
-//! eqs. 15–20), [`termination`] (step 6) and the loop itself in [`icp`] (eqs. 14, 21, 22).
-//! [`variants`] names the four variants of the paper's Table 1, and [`motion`] turns a
-//! registration into SOG, ΔCOG, ROT and HDG (eqs. 23–25).
+//! eqs. 15–20, and Gauss-Newton), [`termination`] (step 6) and the loop itself in [`icp`]
+//! (eqs. 14, 21, 22). Beyond the paper, [`metric`] makes the error of eq. 14 a stage
+//! (point-to-point, point-to-line, plane-to-plane generalised ICP), [`surface`] estimates the
+//! normal and covariance behind every return once per scan, and [`quality`] checks a solution's
+//! conditioning and overlap. Every stage kind is registered once, with typed parameters, in
+//! [`registry`]'s model; [`variants`] holds the built-in variants as configuration data, and
+//! [`motion`] turns a registration into SOG, ΔCOG, ROT and HDG (eqs. 23–25).
 //!
 //! # Frames
 //! Every transform is named `t_a_b`: it maps points expressed in frame `b` into frame `a`.
@@ -40,27 +44,38 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod bound;
+mod cells;
 pub mod error;
 pub mod icp;
 pub mod matching;
+pub mod metric;
 pub mod minimize;
 pub mod motion;
+pub mod pairs;
+pub mod quality;
+pub mod registration;
+pub mod registry;
 pub mod robust;
 pub mod scan;
 pub mod select;
 pub mod sensor;
+pub mod surface;
 pub mod termination;
 pub mod variants;
 pub mod weighting;
 
-pub use error::IcpError;
+pub use error::{ConfigError, IcpError};
 
 /// The README's Rust examples, compiled and run as doctests so the README stays true.
 #[cfg(doctest)]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;
-pub use icp::{Conditioning, Icp, Registrar, Registration, Workspace};
+pub use icp::{Icp, Workspace};
 pub use motion::{BearingSense, MovementParams};
+pub use quality::Conditioning;
+pub use registration::{Prepared, Registrar, Registration};
 pub use scan::Scan;
 pub use sensor::SensorModel;
+pub use surface::{SurfaceParams, Surfaces};
 pub use termination::{StopReason, Termination};

@@ -21,6 +21,9 @@ pub struct Return {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scan {
     returns: Vec<Return>,
+    /// The true surface normal behind each return (unit, scan frame), aligned with `returns`;
+    /// empty when no return's normal is known. Kept apart so that [`Return`] stays small.
+    true_normals: Vec<Option<Vector2<f64>>>,
     timestamp_s: Option<f64>,
     no_returns: usize,
 }
@@ -42,7 +45,7 @@ impl Scan {
         let mut returns = Vec::with_capacity(ranges_m.len());
         let mut no_returns = 0;
         for (index, (&r, &a)) in ranges_m.iter().zip(bearings_rad).enumerate() {
-            if r.is_nan() || r == 0.0 {
+            if is_no_return(r) {
                 no_returns += 1;
                 continue;
             }
@@ -72,9 +75,46 @@ impl Scan {
         }
         Ok(Self {
             returns,
+            true_normals: Vec::new(),
             timestamp_s: None,
             no_returns,
         })
+    }
+
+    /// Like [`Scan::from_polar`], with the true surface normal behind each reading, one per
+    /// reading (unitless, scan frame; `None`: unknown, e.g. a spurious return).
+    ///
+    /// The normals follow the readings: a no-return reading's normal is dropped with it,
+    /// unchecked like its bearing, so [`Scan::true_normals`] stays aligned with
+    /// [`Scan::returns`]. Every other given normal must be finite and non-zero
+    /// ([`IcpError::NonFinite`] or [`IcpError::ZeroLength`], `what: "true normal"`, naming the
+    /// reading's index) and is scaled to unit length; one already unit to within 4 ε is kept
+    /// bit for bit, so normalising is idempotent and a normal written out and read back is
+    /// unchanged. When no return has a known normal the scan carries none
+    /// ([`Scan::true_normals`] is `None`).
+    pub fn from_polar_with_true_normals(
+        ranges_m: &[f64],
+        bearings_rad: &[f64],
+        true_normals: &[Option<Vector2<f64>>],
+    ) -> Result<Self, IcpError> {
+        let mut scan = Self::from_polar(ranges_m, bearings_rad)?;
+        if true_normals.len() != ranges_m.len() {
+            return Err(IcpError::LengthMismatch {
+                what: "true normals",
+                expected: ranges_m.len(),
+                got: true_normals.len(),
+            });
+        }
+        let mut kept = Vec::with_capacity(scan.returns.len());
+        for (index, (&r, n)) in ranges_m.iter().zip(true_normals).enumerate() {
+            if !is_no_return(r) {
+                kept.push(n.map(|n| unit_normal(n, index)).transpose()?);
+            }
+        }
+        if kept.iter().any(Option::is_some) {
+            scan.true_normals = kept;
+        }
+        Ok(scan)
     }
 
     /// Builds a scan from Cartesian points in the scan frame, keeping them exactly and deriving
@@ -105,6 +145,7 @@ impl Scan {
         }
         Ok(Self {
             returns,
+            true_normals: Vec::new(),
             timestamp_s: None,
             no_returns,
         })
@@ -128,6 +169,14 @@ impl Scan {
         &self.returns
     }
 
+    /// The true surface normal behind each return, aligned with [`Scan::returns`]: unit vectors
+    /// (unitless) in the scan frame, as given to [`Scan::from_polar_with_true_normals`].
+    /// `None`: the scan carries no true normals at all; an inner `None`: that return's surface
+    /// is unknown (e.g. a spurious return).
+    pub fn true_normals(&self) -> Option<&[Option<Vector2<f64>>]> {
+        (!self.true_normals.is_empty()).then_some(&self.true_normals[..])
+    }
+
     /// Number of valid returns.
     pub fn len(&self) -> usize {
         self.returns.len()
@@ -147,6 +196,40 @@ impl Scan {
     pub fn timestamp_s(&self) -> Option<f64> {
         self.timestamp_s
     }
+}
+
+/// A reading that is a "no return": range NaN or exactly 0.
+fn is_no_return(range_m: f64) -> bool {
+    range_m.is_nan() || range_m == 0.0
+}
+
+/// How far from 1 the length of a true normal may be for it to be kept as given (4 ε).
+const UNIT_NORMAL_TOLERANCE: f64 = 4.0 * f64::EPSILON;
+
+/// `n` at unit length, or the error naming reading `index`.
+fn unit_normal(n: Vector2<f64>, index: usize) -> Result<Vector2<f64>, IcpError> {
+    for value in [n.x, n.y] {
+        if !value.is_finite() {
+            return Err(IcpError::NonFinite {
+                what: "true normal",
+                index,
+                value,
+            });
+        }
+    }
+    if (n.x.hypot(n.y) - 1.0).abs() <= UNIT_NORMAL_TOLERANCE {
+        return Ok(n);
+    }
+    // Divided by its largest component first, so that its length neither under- nor overflows.
+    let largest = n.x.abs().max(n.y.abs());
+    if largest == 0.0 {
+        return Err(IcpError::ZeroLength {
+            what: "true normal",
+            index,
+        });
+    }
+    let m = n / largest;
+    Ok(m / m.x.hypot(m.y))
 }
 
 /// Smallest number of points a registration accepts.
@@ -206,6 +289,7 @@ pub fn check_geometry<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     #[test]
     fn polar_drops_and_counts_no_returns() {
@@ -263,6 +347,123 @@ mod tests {
             .unwrap()
             .with_timestamp(f64::NAN)
             .is_err());
+    }
+
+    #[test]
+    fn true_normals_follow_the_kept_returns() {
+        let v = |x: f64, y: f64| Some(Vector2::new(x, y));
+        let scan = Scan::from_polar_with_true_normals(
+            &[1.0, f64::NAN, 2.0, 0.0, 3.0],
+            &[0.0, 0.1, 0.2, 0.3, 0.4],
+            // The no-returns' normals are dropped unchecked, like their bearings.
+            &[
+                v(0.0, -2.0),
+                v(f64::NAN, 0.0),
+                None,
+                v(0.0, 0.0),
+                v(3.0, 4.0),
+            ],
+        )
+        .unwrap()
+        .with_timestamp(1.5)
+        .unwrap();
+        assert_eq!((scan.len(), scan.no_returns()), (3, 2));
+        assert_eq!(
+            scan.true_normals(),
+            Some(&[v(0.0, -1.0), None, v(0.6, 0.8)][..])
+        );
+        // A unit normal is kept bit for bit.
+        let unit = Vector2::new(0.1f64.cos(), 0.1f64.sin());
+        let kept = Scan::from_polar_with_true_normals(&[1.0], &[0.0], &[Some(unit)]).unwrap();
+        assert_eq!(
+            kept.true_normals().unwrap()[0].unwrap().map(f64::to_bits),
+            unit.map(f64::to_bits)
+        );
+        // Neither huge nor subnormal vectors over- or underflow on the way.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!(
+            (unit_normal(Vector2::new(f64::MAX, -f64::MAX), 0).unwrap() - Vector2::new(h, -h))
+                .norm()
+                < 1e-15
+        );
+        assert_eq!(
+            unit_normal(Vector2::new(0.0, -5e-324), 0),
+            Ok(Vector2::new(0.0, -1.0))
+        );
+        // No known normal at all: the scan carries none, as one built without them.
+        let none =
+            Scan::from_polar_with_true_normals(&[1.0, 0.0], &[0.0, 1.0], &[None, v(1.0, 0.0)])
+                .unwrap();
+        assert_eq!(none.true_normals(), None);
+        assert_eq!(none, Scan::from_polar(&[1.0, 0.0], &[0.0, 1.0]).unwrap());
+        assert_eq!(
+            Scan::from_cartesian(&[[1.0, 2.0]]).unwrap().true_normals(),
+            None
+        );
+    }
+
+    #[test]
+    fn bad_true_normals_are_errors_naming_the_reading() {
+        let v = |x: f64, y: f64| Some(Vector2::new(x, y));
+        assert_eq!(
+            Scan::from_polar_with_true_normals(&[1.0, 2.0], &[0.0, 1.0], &[None]),
+            Err(IcpError::LengthMismatch {
+                what: "true normals",
+                expected: 2,
+                got: 1
+            })
+        );
+        assert!(matches!(
+            Scan::from_polar_with_true_normals(&[f64::NAN, 2.0], &[0.0, 1.0], &[None, v(1.0, f64::INFINITY)]),
+            Err(IcpError::NonFinite {
+                what: "true normal",
+                index: 1,
+                value
+            }) if value == f64::INFINITY
+        ));
+        assert_eq!(
+            Scan::from_polar_with_true_normals(
+                &[1.0, 0.0, 2.0],
+                &[0.0; 3],
+                &[None, None, v(0.0, -0.0)]
+            ),
+            Err(IcpError::ZeroLength {
+                what: "true normal",
+                index: 2
+            })
+        );
+        assert_eq!(
+            IcpError::ZeroLength {
+                what: "true normal",
+                index: 2
+            }
+            .to_string(),
+            "zero-length true normal at index 2"
+        );
+    }
+
+    /// Every finite `f64`, of either sign.
+    fn finite() -> prop::num::f64::Any {
+        prop::num::f64::NORMAL | prop::num::f64::SUBNORMAL | prop::num::f64::ZERO
+    }
+
+    proptest! {
+        /// Any finite non-zero vector, from subnormal to near `f64::MAX`, comes out unit, and a
+        /// normal that came out once comes out again bit for bit.
+        #[test]
+        fn true_normals_are_unit_and_normalising_is_idempotent(
+            x in prop_oneof![finite(), -1.0..1.0f64],
+            y in prop_oneof![finite(), -1.0..1.0f64],
+        ) {
+            if x == 0.0 && y == 0.0 {
+                return Ok(()); // the zero vector is an error, tested above
+            }
+            let once = unit_normal(Vector2::new(x, y), 0).unwrap();
+            prop_assert!((once.x.hypot(once.y) - 1.0).abs() <= UNIT_NORMAL_TOLERANCE);
+            prop_assert!(once.x * x >= 0.0 && once.y * y >= 0.0, "same direction");
+            let twice = unit_normal(once, 0).unwrap();
+            prop_assert_eq!(twice.map(f64::to_bits), once.map(f64::to_bits));
+        }
     }
 
     #[test]

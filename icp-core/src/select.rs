@@ -2,26 +2,53 @@
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
+
+use crate::registry::{Family, Kind, NoParams, Params, StageKind, StageSpec};
 
 /// Chooses which points of each scan take part in the registration.
 pub trait Selection: Send + Sync {
+    /// What this stage is, as configuration data.
+    fn spec(&self) -> StageSpec {
+        StageSpec::unregistered::<Self>()
+    }
+
     /// Fills `src` and `reference` (cleared first) with the ascending indices of the points
     /// kept from a source scan of `n_src` points and a reference scan of `n_ref` points.
     fn select(&self, n_src: usize, n_ref: usize, src: &mut Vec<usize>, reference: &mut Vec<usize>);
 }
 
-impl<S: Selection + ?Sized> Selection for Box<S> {
-    fn select(&self, n_src: usize, n_ref: usize, src: &mut Vec<usize>, reference: &mut Vec<usize>) {
-        (**self).select(n_src, n_ref, src, reference)
-    }
-}
+/// Every registered selection. Adding one: a file or a struct with its `impl Selection` and
+/// its `KIND`, and one line here.
+pub static SELECTIONS: Family<dyn Selection> = Family {
+    name: "selection",
+    summary: "Alg. 1 step 1: which points of each scan take part",
+    kinds: &[&ALL, &EQUAL_COUNT],
+};
+
+/// The registered kind of [`AllPoints`].
+pub const ALL: Kind<NoParams, dyn Selection> =
+    Kind::new("all", "every point of both scans", |_, _| {
+        Box::new(AllPoints)
+    });
+
+/// The registered kind of [`EqualCount`].
+pub const EQUAL_COUNT: Kind<EqualCount, dyn Selection> = Kind::new(
+    "equal_count",
+    "points removed at random (seeded) from the larger scan until both have as many (Naus & Marchel 2019, Alg. 1 step 1)",
+    |p, _| Box::new(p),
+);
 
 /// Keeps every point of both scans.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AllPoints;
 
 impl Selection for AllPoints {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(ALL.name())
+    }
+
     fn select(&self, n_src: usize, n_ref: usize, src: &mut Vec<usize>, reference: &mut Vec<usize>) {
         src.clear();
         src.extend(0..n_src);
@@ -35,13 +62,20 @@ impl Selection for AllPoints {
 ///
 /// The draw is seeded (ChaCha8), so a registration is reproducible; the same seed is used for
 /// every pair, which keeps results independent of the order in which pairs are run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
 pub struct EqualCount {
     /// Seed of the random draw.
     pub seed: u64,
 }
 
+impl Params for EqualCount {}
+
 impl Selection for EqualCount {
+    fn spec(&self) -> StageSpec {
+        StageSpec::of(EQUAL_COUNT.name(), self)
+    }
+
     fn select(&self, n_src: usize, n_ref: usize, src: &mut Vec<usize>, reference: &mut Vec<usize>) {
         let n = n_src.min(n_ref);
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);

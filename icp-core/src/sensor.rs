@@ -10,7 +10,7 @@ use crate::IcpError;
 /// The default is the Scanse Sweep of the paper: `σ_r = 0.004258·r` (Naus & Marchel 2019,
 /// Section 3) and `σ_α = 0.5°` (the Sweep manual's beam divergence: the paper prints no usable
 /// value, see `PAPER.md`).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SensorModel {
     /// Constant part of the range standard deviation, metres.

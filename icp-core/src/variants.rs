@@ -1,136 +1,39 @@
-//! The paper's four variants (Table 1), and variants as data: a [`VariantSpec`] names the
-//! stages and parameters of one chain, read from a configuration file or from the built-in
-//! registry ([`builtin`]), and builds a [`Registrar`].
+//! Variants as data: a [`VariantSpec`] names the stages and parameters of one chain, read
+//! from a configuration file or from the built-in variants, and builds an [`Icp`].
 //!
-//! | name | weights | rejection |
-//! | --- | --- | --- |
-//! | K_ICP | uniform | none |
-//! | H_ICP | uniform | Huber |
-//! | HM_ICP | mean error, eq. 13 | Huber |
-//! | HD_ICP | directional, eq. 12 | Huber |
-//! | IR_ICP | inverse range (the worked example of a new scheme) | Huber |
+//! The built-in variants are the configuration files of `configs/variants/`, compiled in: the
+//! paper's Table 1 and the field's point-to-line and plane-to-plane methods.
+//!
+//! | name | metric | weights | rejection | source |
+//! | --- | --- | --- | --- | --- |
+//! | K_ICP | point-to-point | uniform | none | Naus & Marchel 2019, Table 1 |
+//! | H_ICP | point-to-point | uniform | Huber | Table 1 |
+//! | HM_ICP | point-to-point | mean error, eq. 13 | Huber | Table 1 |
+//! | HD_ICP | point-to-point | directional, eq. 12 | Huber | Table 1 |
+//! | IR_ICP | point-to-point | inverse range | Huber | the worked example of a new scheme |
+//! | PL_ICP | point-to-line | uniform | Huber | Censi 2008; Chen & Medioni 1991 |
+//! | HD_PL_ICP | point-to-line | eq. 9 along the normal | Huber | this project |
+//! | GICP | plane-to-plane, surface covariances | uniform | Huber | Segal et al. 2009 |
+//! | HD_GICP | plane-to-plane, surface + sensor covariances | uniform | Huber | Segal et al. 2009 with eq. 8 |
 
 use serde::{Deserialize, Serialize};
+use serde_json::Value;
 
-use crate::matching::{BruteForce, Delaunay, Grid, KdTree, Matcher, MatcherKind};
-use crate::minimize::WeightedKabsch;
-use crate::robust::{Kernel, MedianScaled, NoRobust, RobustKernel};
-use crate::select::{AllPoints, EqualCount, Selection};
-use crate::weighting::{Directional, MeanError, Uniform, WeightingSpec};
-use crate::{Icp, IcpError, Registrar, SensorModel, Termination};
+use crate::error::ConfigError;
+use crate::icp::Icp;
+use crate::matching::MATCHERS;
+use crate::metric::METRICS;
+use crate::minimize::MINIMIZERS;
+use crate::registry::{param_docs, BuildContext, FamilyDoc, ParamError, SectionDoc, StageSpec};
+use crate::robust::ROBUST_KERNELS;
+use crate::select::SELECTIONS;
+use crate::surface::SurfaceParams;
+use crate::weighting::WEIGHTINGS;
+use crate::{IcpError, SensorModel, Termination};
 
-/// K_ICP: uniform weights, no rejection.
-pub type KIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, NoRobust, WeightedKabsch>;
-/// H_ICP: uniform weights, Huber rejection.
-pub type HIcp<M = Grid, S = EqualCount> = Icp<S, M, Uniform, MedianScaled, WeightedKabsch>;
-/// HM_ICP: mean-error weights (eq. 13), Huber rejection.
-pub type HmIcp<M = Grid, S = EqualCount> = Icp<S, M, MeanError, MedianScaled, WeightedKabsch>;
-/// HD_ICP: directional weights (eq. 12), Huber rejection.
-pub type HdIcp<M = Grid, S = EqualCount> = Icp<S, M, Directional, MedianScaled, WeightedKabsch>;
-
-fn chain<S, M, W, K>(
-    name: &str,
-    selection: S,
-    matcher: M,
-    weighting: W,
-    robust: K,
-    termination: Termination,
-) -> Icp<S, M, W, K, WeightedKabsch> {
-    Icp {
-        name: name.to_owned(),
-        selection,
-        matcher,
-        weighting,
-        robust,
-        minimizer: WeightedKabsch,
-        termination,
-    }
-}
-
-/// K_ICP with the paper's stages: equal-count selection (seed 0), nearest-neighbour matching
-/// (on a grid: the same pairs as the paper's Delaunay search).
-pub fn k_icp() -> KIcp {
-    chain(
-        "K_ICP",
-        EqualCount::default(),
-        Grid,
-        Uniform,
-        NoRobust,
-        Termination::default(),
-    )
-}
-
-/// H_ICP: K_ICP plus Huber rejection with `c = 2.0138`.
-pub fn h_icp() -> HIcp {
-    chain(
-        "H_ICP",
-        EqualCount::default(),
-        Grid,
-        Uniform,
-        MedianScaled::paper_huber(),
-        Termination::default(),
-    )
-}
-
-/// HM_ICP: H_ICP with mean-error weights from `sensor`.
-pub fn hm_icp(sensor: SensorModel) -> HmIcp {
-    chain(
-        "HM_ICP",
-        EqualCount::default(),
-        Grid,
-        MeanError { sensor },
-        MedianScaled::paper_huber(),
-        Termination::default(),
-    )
-}
-
-/// HD_ICP: H_ICP with directional weights from `sensor`.
-pub fn hd_icp(sensor: SensorModel) -> HdIcp {
-    chain(
-        "HD_ICP",
-        EqualCount::default(),
-        Grid,
-        Directional { sensor },
-        MedianScaled::paper_huber(),
-        Termination::default(),
-    )
-}
-
-/// Point selection by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum SelectionKind {
-    /// Every point of both scans.
-    All,
-    /// The paper's random equalisation of counts, seeded.
-    EqualCount {
-        /// Seed of the draw.
-        seed: u64,
-    },
-}
-
-impl Default for SelectionKind {
-    fn default() -> Self {
-        SelectionKind::EqualCount { seed: 0 }
-    }
-}
-
-/// Robust rejection by name.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum RobustSpec {
-    /// No rejection.
-    None,
-    /// A kernel with threshold `c · median d` ([`MedianScaled`]).
-    MedianScaled {
-        /// Huber, Tukey, Cauchy or Geman-McClure.
-        kernel: Kernel,
-        /// Factor on the median pair distance.
-        c: f64,
-    },
-}
-
-/// One registration method as data: what a configuration file holds.
+/// One registration method as data: what a configuration file holds. A stage missing from a
+/// file takes the paper's (equal-count selection, grid matching, point-to-point), and the
+/// minimiser the metric's own (weighted Kabsch for point-to-point, Gauss-Newton otherwise).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct VariantSpec {
@@ -139,17 +42,26 @@ pub struct VariantSpec {
     /// Where the method comes from (citation, Table 1 row), free text.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<String>,
-    /// Pair weighting (Alg. 1 step 3).
-    pub weighting: WeightingSpec,
-    /// Robust rejection (Alg. 1 step 4).
-    pub robust: RobustSpec,
-    /// Nearest-neighbour matcher (Alg. 1 step 2).
-    #[serde(default)]
-    pub matcher: MatcherKind,
     /// Point selection (Alg. 1 step 1).
+    #[serde(default = "default_selection")]
+    pub selection: StageSpec,
+    /// Nearest-neighbour matcher (Alg. 1 step 2).
+    #[serde(default = "default_matcher")]
+    pub matcher: StageSpec,
+    /// How the surface (normal, covariance) behind each return is estimated.
     #[serde(default)]
-    pub selection: SelectionKind,
-    /// Error model for the weights.
+    pub surfaces: SurfaceParams,
+    /// The error metric of eq. 14.
+    #[serde(default = "default_metric")]
+    pub metric: StageSpec,
+    /// Pair weighting (Alg. 1 step 3).
+    pub weighting: StageSpec,
+    /// Robust rejection (Alg. 1 step 4).
+    pub robust: StageSpec,
+    /// Minimisation (Alg. 1 step 5); `None`: the metric's own.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub minimizer: Option<StageSpec>,
+    /// Error model of the returns, for the weights and the metrics that use it.
     #[serde(default)]
     pub sensor: SensorModel,
     /// Convergence rule (Alg. 1 step 6).
@@ -157,245 +69,363 @@ pub struct VariantSpec {
     pub termination: Termination,
 }
 
-impl VariantSpec {
-    /// Checks every parameter before a run.
-    pub fn validate(&self) -> Result<(), IcpError> {
-        self.sensor.validate()?;
-        self.termination.validate()?;
-        self.weighting.validate()?;
-        if let RobustSpec::MedianScaled { c, .. } = self.robust {
-            if !(c.is_finite() && c > 0.0) {
-                return Err(IcpError::InvalidParameter {
-                    name: "robust.c",
-                    value: c,
-                    reason: "must be finite and positive",
-                });
-            }
-        }
-        Ok(())
-    }
+fn default_selection() -> StageSpec {
+    StageSpec::kind("equal_count")
+}
 
-    /// Builds the registrar this spec describes.
-    pub fn build(&self) -> Result<Box<dyn Registrar>, IcpError> {
-        self.validate()?;
-        Ok(match self.matcher {
-            MatcherKind::Kdtree => self.build_with(KdTree),
-            MatcherKind::Delaunay => self.build_with(Delaunay),
-            MatcherKind::Brute => self.build_with(BruteForce),
-            MatcherKind::Grid => self.build_with(Grid),
+fn default_matcher() -> StageSpec {
+    StageSpec::kind("grid")
+}
+
+fn default_metric() -> StageSpec {
+    StageSpec::kind("point_to_point")
+}
+
+impl VariantSpec {
+    /// Builds the chain this spec describes, checking every stage's kind and parameters, the
+    /// sections, and that the minimiser can minimise the metric's cost.
+    pub fn build(&self) -> Result<Icp, ConfigError> {
+        let section = |section: &'static str| {
+            move |source: ParamError| ConfigError::Section { section, source }
+        };
+        self.sensor.validate().map_err(|e| match e {
+            IcpError::InvalidParameter {
+                name,
+                value,
+                reason,
+            } => ConfigError::Section {
+                section: "sensor",
+                source: ParamError::new(name, value, reason),
+            },
+            other => ConfigError::Incompatible(other.to_string()),
+        })?;
+        self.surfaces.validate().map_err(section("surfaces"))?;
+        self.termination
+            .validate()
+            .map_err(section("termination"))?;
+        let ctx = BuildContext {
+            sensor: self.sensor,
+        };
+        let metric = METRICS.build(&self.metric, &ctx)?;
+        let minimizer_spec = self
+            .minimizer
+            .clone()
+            .unwrap_or_else(|| metric.default_minimizer());
+        let minimizer = MINIMIZERS.build(&minimizer_spec, &ctx)?;
+        minimizer
+            .check(metric.as_ref())
+            .map_err(ConfigError::Incompatible)?;
+        Ok(Icp {
+            name: self.name.clone(),
+            source: self.source.clone(),
+            sensor: self.sensor,
+            selection: SELECTIONS.build(&self.selection, &ctx)?,
+            matcher: MATCHERS.build(&self.matcher, &ctx)?,
+            surfaces: self.surfaces,
+            metric,
+            weighting: WEIGHTINGS.build(&self.weighting, &ctx)?,
+            robust: ROBUST_KERNELS.build(&self.robust, &ctx)?,
+            minimizer,
+            termination: self.termination,
         })
     }
 
-    fn build_with<M: Matcher + PartialEq + Clone + 'static>(
-        &self,
-        matcher: M,
-    ) -> Box<dyn Registrar> {
-        let selection: Box<dyn Selection> = match self.selection {
-            SelectionKind::All => Box::new(AllPoints),
-            SelectionKind::EqualCount { seed } => Box::new(EqualCount { seed }),
-        };
-        let robust: Box<dyn RobustKernel> = match self.robust {
-            RobustSpec::None => Box::new(NoRobust),
-            RobustSpec::MedianScaled { kernel, c } => Box::new(MedianScaled { kernel, c }),
-        };
-        Box::new(chain(
-            &self.name,
-            selection,
-            matcher,
-            self.weighting.build(self.sensor),
-            robust,
-            self.termination,
-        ))
+    /// Checks every parameter before a run.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.build().map(|_| ())
     }
-}
 
-/// Settings shared by the built-in variants (the command line's options).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct VariantConfig {
-    /// Error model for the weights.
-    pub sensor: SensorModel,
-    /// Nearest-neighbour matcher.
-    pub matcher: MatcherKind,
-    /// Point selection.
-    pub selection: SelectionKind,
-    /// Factor `c` of the Huber threshold `kHu = c · median`.
-    pub huber_c: f64,
-    /// Convergence rule.
-    pub termination: Termination,
-}
+    /// The spec with every stage's parameters written out (defaults included) and the
+    /// minimiser named: what a run reports as its configuration.
+    pub fn normalized(&self) -> Result<VariantSpec, ConfigError> {
+        use crate::Registrar;
+        Ok(self.build()?.spec())
+    }
 
-impl Default for VariantConfig {
-    fn default() -> Self {
-        Self {
-            sensor: SensorModel::sweep(),
-            matcher: MatcherKind::Grid,
-            selection: SelectionKind::default(),
-            huber_c: MedianScaled::PAPER_C,
-            termination: Termination::default(),
+    /// The spec with the parameter at `path` (`section.parameter`, e.g. `robust.c`,
+    /// `sensor.sigma_alpha_rad`, `selection.seed`, or `matcher.kind` to change a stage's kind)
+    /// set to `value`; `Ok(None)` when this variant has no such parameter (its robust kernel
+    /// has no `c`, say), `Err` when the value is not valid there.
+    pub fn with_param(&self, path: &str, value: Value) -> Result<Option<VariantSpec>, ConfigError> {
+        let bad = |why: String| ConfigError::Incompatible(format!("{path}: {why}"));
+        let (section, parameter) = path
+            .split_once('.')
+            .ok_or_else(|| bad("expected section.parameter".into()))?;
+        let mut json = serde_json::to_value(self.normalized()?).map_err(|e| bad(e.to_string()))?;
+        let Some(slot) = json.get_mut(section).and_then(|s| s.get_mut(parameter)) else {
+            return Ok(None);
+        };
+        *slot = value;
+        let changed: VariantSpec = serde_json::from_value(json).map_err(|e| bad(e.to_string()))?;
+        if parameter == "kind" {
+            // Another kind: its own parameters take their defaults.
+            let mut spec = changed;
+            let kind = |s: &StageSpec| StageSpec::kind(&s.kind);
+            match section {
+                "selection" => spec.selection = kind(&spec.selection),
+                "matcher" => spec.matcher = kind(&spec.matcher),
+                "metric" => {
+                    spec.metric = kind(&spec.metric);
+                    spec.minimizer = None;
+                }
+                "weighting" => spec.weighting = kind(&spec.weighting),
+                "robust" => spec.robust = kind(&spec.robust),
+                "minimizer" => spec.minimizer = spec.minimizer.as_ref().map(kind),
+                _ => {}
+            }
+            return Ok(Some(spec.normalized()?));
         }
+        changed.validate()?;
+        Ok(Some(changed))
     }
 }
+
+/// The built-in variants: the committed configuration files, compiled in. Adding one is one
+/// file in `configs/variants/` and one line here.
+const BUILTIN: [&str; 9] = [
+    include_str!("../../configs/variants/k_icp.json"),
+    include_str!("../../configs/variants/h_icp.json"),
+    include_str!("../../configs/variants/hm_icp.json"),
+    include_str!("../../configs/variants/hd_icp.json"),
+    include_str!("../../configs/variants/ir_icp.json"),
+    include_str!("../../configs/variants/pl_icp.json"),
+    include_str!("../../configs/variants/hd_pl_icp.json"),
+    include_str!("../../configs/variants/gicp.json"),
+    include_str!("../../configs/variants/hd_gicp.json"),
+];
 
 /// The paper's four variants, in Table 1's order.
 pub const TABLE1: [&str; 4] = ["K_ICP", "H_ICP", "HM_ICP", "HD_ICP"];
 
-/// The built-in variants: name, weighting, whether Huber rejects, and the source.
-const BUILTIN: [(&str, WeightingSpec, bool, &str); 5] = [
-    (
-        "K_ICP",
-        WeightingSpec::Uniform,
-        false,
-        "Naus & Marchel 2019, Table 1: uniform weights, no rejection",
-    ),
-    (
-        "H_ICP",
-        WeightingSpec::Uniform,
-        true,
-        "Naus & Marchel 2019, Table 1: uniform weights, Huber (c = 2.0138)",
-    ),
-    (
-        "HM_ICP",
-        WeightingSpec::MeanError,
-        true,
-        "Naus & Marchel 2019, Table 1 and eq. 13: mean-error weights, Huber",
-    ),
-    (
-        "HD_ICP",
-        WeightingSpec::Directional,
-        true,
-        "Naus & Marchel 2019, Table 1 and eq. 12: directional weights, Huber",
-    ),
-    (
-        "IR_ICP",
-        WeightingSpec::InverseRange { r0_m: 1.0 },
-        true,
-        "icp-bench worked example: inverse-range weights, Huber",
-    ),
-];
+/// Every built-in variant, in order.
+pub fn builtins() -> Vec<VariantSpec> {
+    BUILTIN
+        .iter()
+        .map(|text| serde_json::from_str(text).expect("the built-in configuration files parse"))
+        .collect()
+}
 
 /// Names of every built-in variant.
-pub fn builtin_names() -> impl Iterator<Item = &'static str> {
-    BUILTIN.iter().map(|b| b.0)
+pub fn builtin_names() -> Vec<String> {
+    builtins().into_iter().map(|v| v.name).collect()
 }
 
-/// The built-in variant `name` (case-insensitive) with the shared settings of `config`.
-pub fn builtin(name: &str, config: &VariantConfig) -> Option<VariantSpec> {
-    let &(name, weighting, huber, source) =
-        BUILTIN.iter().find(|b| b.0.eq_ignore_ascii_case(name))?;
-    Some(VariantSpec {
-        name: name.to_owned(),
-        source: Some(source.to_owned()),
-        weighting,
-        robust: if huber {
-            RobustSpec::MedianScaled {
-                kernel: Kernel::Huber,
-                c: config.huber_c,
-            }
-        } else {
-            RobustSpec::None
-        },
-        matcher: config.matcher,
-        selection: config.selection,
-        sensor: config.sensor,
-        termination: config.termination,
-    })
+/// The built-in variant `name` (case-insensitive).
+pub fn builtin(name: &str) -> Option<VariantSpec> {
+    builtins()
+        .into_iter()
+        .find(|v| v.name.eq_ignore_ascii_case(name))
 }
 
-/// The four variants of Table 1 with the shared settings of `config`.
-pub fn table1(config: &VariantConfig) -> Vec<VariantSpec> {
+/// The four variants of Table 1.
+pub fn table1() -> Vec<VariantSpec> {
     TABLE1
         .iter()
-        .map(|n| builtin(n, config).expect("the Table 1 names are built in"))
+        .map(|n| builtin(n).expect("the Table 1 names are built in"))
         .collect()
+}
+
+/// The built-in variant `name` with the error model `sensor`, built.
+fn builtin_with(name: &str, sensor: SensorModel) -> Icp {
+    let mut spec = builtin(name).expect("a built-in name");
+    spec.sensor = sensor;
+    spec.build().expect("the built-in variants build")
+}
+
+/// K_ICP: uniform weights, no rejection (the paper's stages: equal-count selection, exact
+/// nearest-neighbour matching, weighted Kabsch).
+pub fn k_icp() -> Icp {
+    builtin_with("K_ICP", SensorModel::sweep())
+}
+
+/// H_ICP: K_ICP plus Huber rejection with `c = 2.0138`.
+pub fn h_icp() -> Icp {
+    builtin_with("H_ICP", SensorModel::sweep())
+}
+
+/// HM_ICP: H_ICP with mean-error weights (eq. 13) from `sensor`.
+pub fn hm_icp(sensor: SensorModel) -> Icp {
+    builtin_with("HM_ICP", sensor)
+}
+
+/// HD_ICP: H_ICP with directional weights (eq. 12) from `sensor`.
+pub fn hd_icp(sensor: SensorModel) -> Icp {
+    builtin_with("HD_ICP", sensor)
+}
+
+/// Every stage family with its kinds and parameters, and the sections that are not stages:
+/// what `icp-eval list` prints.
+pub fn stage_families() -> Vec<FamilyDoc> {
+    vec![
+        SELECTIONS.doc(),
+        MATCHERS.doc(),
+        METRICS.doc(),
+        WEIGHTINGS.doc(),
+        ROBUST_KERNELS.doc(),
+        MINIMIZERS.doc(),
+    ]
+}
+
+/// The sections of a variant's configuration that are not stages.
+pub fn section_docs() -> Vec<SectionDoc> {
+    vec![
+        SectionDoc {
+            name: "surfaces",
+            summary: "how the normal and covariance behind each return are estimated (PCA of its nearest returns)",
+            parameters: param_docs::<SurfaceParams>(),
+        },
+        SectionDoc {
+            name: "sensor",
+            summary: "the error model of the returns (Naus & Marchel 2019, eqs. 5, 8, 9)",
+            parameters: param_docs::<SensorModel>(),
+        },
+        SectionDoc {
+            name: "termination",
+            summary: "when the iteration stops (Alg. 1 step 6)",
+            parameters: param_docs::<Termination>(),
+        },
+    ]
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Registrar;
 
     #[test]
-    fn builtins_build_and_stages_are_send_sync() {
-        for name in builtin_names() {
-            let spec = builtin(&name.to_lowercase(), &VariantConfig::default()).unwrap();
-            assert_eq!(spec.name, name);
-            assert_eq!(spec.build().unwrap().name(), name);
+    fn builtins_build_and_report_their_own_configuration() {
+        let names = builtin_names();
+        assert_eq!(names.len(), BUILTIN.len());
+        for spec in builtins() {
+            let built = spec.build().unwrap();
+            assert_eq!(built.name(), spec.name);
+            // The files are written out in full: what runs is what the file says.
+            assert_eq!(built.spec(), spec, "{}", spec.name);
+            assert!(spec.source.is_some(), "{} cites its source", spec.name);
         }
-        assert!(builtin("X_ICP", &VariantConfig::default()).is_none());
-        assert_eq!(table1(&VariantConfig::default()).len(), 4);
+        assert!(builtin("x_icp").is_none());
+        assert_eq!(builtin("hd_icp").unwrap().name, "HD_ICP");
+        assert_eq!(table1().len(), 4);
         fn send_sync<T: Send + Sync>() {}
-        send_sync::<KIcp>();
-        send_sync::<HIcp>();
-        send_sync::<HmIcp<Delaunay>>();
-        send_sync::<HdIcp<BruteForce, AllPoints>>();
+        send_sync::<Icp>();
         send_sync::<Box<dyn Registrar>>();
     }
 
     #[test]
-    fn invalid_specs_are_refused() {
-        let mut spec = builtin("H_ICP", &VariantConfig::default()).unwrap();
-        spec.robust = RobustSpec::MedianScaled {
-            kernel: Kernel::Huber,
-            c: -1.0,
+    fn invalid_specs_are_refused_naming_the_parameter() {
+        let err = |f: &dyn Fn(&mut VariantSpec)| {
+            let mut spec = builtin("H_ICP").unwrap();
+            f(&mut spec);
+            spec.build()
+                .err()
+                .unwrap_or_else(|| panic!("{spec:?} refused"))
+                .to_string()
         };
-        assert!(matches!(
-            spec.build(),
-            Err(IcpError::InvalidParameter {
-                name: "robust.c",
-                ..
-            })
-        ));
-        let mut spec = builtin("K_ICP", &VariantConfig::default()).unwrap();
-        spec.termination.max_iterations = 0;
-        assert!(spec.build().is_err());
-        let mut spec = builtin("IR_ICP", &VariantConfig::default()).unwrap();
-        spec.weighting = WeightingSpec::InverseRange { r0_m: 0.0 };
-        assert!(spec.build().is_err());
+        assert_eq!(
+            err(&|s| s.robust = s.robust.clone().with("c", -1.0)),
+            "robust \"median_scaled\": c = -1: must be finite and positive"
+        );
+        assert_eq!(
+            err(&|s| s.termination.max_iterations = 0),
+            "termination.max_iterations = 0: at least one iteration is needed"
+        );
+        assert_eq!(
+            err(&|s| s.weighting = StageSpec::kind("inverse_range").with("r0_m", 0.0)),
+            "weighting \"inverse_range\": r0_m = 0: must be finite and positive"
+        );
+        assert_eq!(
+            err(&|s| s.weighting = StageSpec::kind("directionl")),
+            "unknown weighting kind \"directionl\": expected one of uniform, mean_error, \
+             directional, normal_directional, inverse_range"
+        );
+        assert_eq!(
+            err(&|s| s.metric = StageSpec::kind("point_to_line")),
+            "minimizer weighted_kabsch solves the point-to-point cost only; metric \
+             point_to_line needs gauss_newton"
+        );
+        assert_eq!(
+            err(&|s| s.surfaces.radius_m = 0.0),
+            "surfaces.radius_m = 0: must be finite and positive"
+        );
+        assert_eq!(
+            err(&|s| s.sensor.sigma_r_per_m = -1.0),
+            "sensor.sigma_r_per_m = -1: must be finite and non-negative"
+        );
+        assert!(
+            err(&|s| s.metric = StageSpec::kind("point_to_line").with("gate", 1.0))
+                .contains("unknown field `gate`")
+        );
     }
 
     #[test]
     fn specs_read_from_json_with_defaults_and_refuse_unknown_fields() {
-        let json = r#"{"name": "T_ICP", "weighting": {"kind": "directional"},
+        let json = r#"{"name": "T_ICP", "weighting": "directional",
                        "robust": {"kind": "median_scaled", "kernel": "tukey", "c": 4.685}}"#;
         let spec: VariantSpec = serde_json::from_str(json).unwrap();
-        assert_eq!(spec.matcher, MatcherKind::Grid);
+        assert_eq!(spec.matcher, StageSpec::kind("grid"));
         assert_eq!(spec.sensor, SensorModel::sweep());
-        assert!(spec.build().is_ok());
-        let typo = r#"{"name": "T", "weighting": {"kind": "uniform"}, "robust": {"kind": "none"}, "matchr": "brute"}"#;
+        let full = spec.normalized().unwrap();
+        assert_eq!(full.minimizer, Some(StageSpec::kind("weighted_kabsch")));
+        assert_eq!(full.robust.params["scale_from"], "pair_distance");
+        let typo = r#"{"name": "T", "weighting": "uniform", "robust": "none", "matchr": "brute"}"#;
         assert!(serde_json::from_str::<VariantSpec>(typo).is_err());
     }
 
     #[test]
-    fn the_spec_and_the_typed_constructor_register_identically() {
-        let pts: Vec<[f64; 2]> = (0..200)
-            .map(|i| {
-                let a = i as f64 * 0.031;
-                [
-                    (8.0 + 3.0 * (2.0 * a).sin()) * a.cos(),
-                    (8.0 + 3.0 * (2.0 * a).sin()) * a.sin(),
-                ]
-            })
-            .collect();
-        let t = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.2, -0.1), 0.02);
-        let moved: Vec<[f64; 2]> = pts
-            .iter()
-            .map(|p| {
-                let q = t * nalgebra::Point2::new(p[0], p[1]);
-                [q.x + 0.01 * (q.y * 7.0).sin(), q.y]
-            })
-            .collect();
-        let (a, b) = (
-            crate::Scan::from_cartesian(&pts).unwrap(),
-            crate::Scan::from_cartesian(&moved).unwrap(),
-        );
-        let id = nalgebra::Isometry2::identity();
-        let typed = hd_icp(SensorModel::sweep()).register(&a, &b, id).unwrap();
-        let spec = builtin("HD_ICP", &VariantConfig::default())
+    fn parameters_are_set_by_path() {
+        let hd = builtin("HD_ICP").unwrap();
+        let c3 = hd.with_param("robust.c", 3.0.into()).unwrap().unwrap();
+        assert_eq!(c3.robust.params["c"], 3.0);
+        assert_eq!(hd.with_param("robust.nope", 3.0.into()).unwrap(), None);
+        let k = builtin("K_ICP").unwrap();
+        assert_eq!(k.with_param("robust.c", 3.0.into()).unwrap(), None);
+        let kd = hd
+            .with_param("matcher.kind", "kdtree".into())
             .unwrap()
-            .build()
-            .unwrap()
-            .register(&a, &b, id)
             .unwrap();
-        assert_eq!(typed, spec);
+        assert_eq!(kd.matcher, StageSpec::kind("kdtree"));
+        assert!(hd.with_param("robust.c", (-1.0).into()).is_err());
+        assert!(hd.with_param("robust", 1.0.into()).is_err());
+        let pl = hd
+            .with_param("metric.kind", "point_to_line".into())
+            .unwrap()
+            .unwrap();
+        assert_eq!(pl.minimizer.unwrap().kind, "gauss_newton");
+    }
+
+    /// Rewrites `configs/variants/` in normalized form: `cargo test -p icp-core --lib
+    /// write_normalized_configs -- --ignored`.
+    #[test]
+    #[ignore]
+    fn write_normalized_configs() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/variants");
+        for spec in builtins() {
+            let text = serde_json::to_string_pretty(&spec.normalized().unwrap()).unwrap() + "\n";
+            std::fs::write(dir.join(format!("{}.json", spec.name.to_lowercase())), text).unwrap();
+        }
+    }
+
+    #[test]
+    fn every_family_documents_every_kind() {
+        for section in section_docs() {
+            assert!(!section.parameters.is_empty(), "{}", section.name);
+            for p in &section.parameters {
+                assert!(!p.description.is_empty(), "{}.{}", section.name, p.name);
+            }
+        }
+        for family in stage_families() {
+            for kind in &family.kinds {
+                assert!(!kind.summary.is_empty(), "{}.{}", family.name, kind.name);
+                for p in &kind.parameters {
+                    assert!(
+                        !p.description.is_empty(),
+                        "{}.{}.{} has no doc comment",
+                        family.name,
+                        kind.name,
+                        p.name
+                    );
+                }
+            }
+        }
     }
 }

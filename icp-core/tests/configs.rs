@@ -1,23 +1,24 @@
-//! The committed variant files describe exactly the built-in variants.
+//! Every variant file of `configs/variants/` is a built-in variant, and every built-in variant
+//! is a file there: the files are the one source of the built-in variants.
 
 use std::path::Path;
 
-use icp_core::variants::{builtin, builtin_names, VariantConfig, VariantSpec};
+use icp_core::variants::{builtin, builtin_names};
 
 #[test]
-fn config_files_equal_the_builtins() {
+fn every_json_config_is_built_in_and_every_builtin_has_its_file() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/variants");
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "json"))
+        .map(|p| p.file_stem().unwrap().to_string_lossy().into_owned())
+        .collect();
+    files.sort();
+    let mut names: Vec<String> = builtin_names().iter().map(|n| n.to_lowercase()).collect();
+    names.sort();
+    assert_eq!(files, names);
     for name in builtin_names() {
-        let path = dir.join(format!("{}.json", name.to_lowercase()));
-        let text =
-            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let spec: VariantSpec = serde_json::from_str(&text).unwrap();
-        assert_eq!(
-            Some(spec.clone()),
-            builtin(name, &VariantConfig::default()),
-            "{}",
-            path.display()
-        );
-        assert!(spec.build().is_ok());
+        assert!(builtin(&name).unwrap().build().is_ok(), "{name}");
     }
 }

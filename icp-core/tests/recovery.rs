@@ -1,7 +1,6 @@
 //! Every variant, with every matcher, recovers known rigid motions of noise-free scans.
 
-use icp_core::matching::MatcherKind;
-use icp_core::variants::{builtin, builtin_names, VariantConfig};
+use icp_core::variants::{builtin, builtins};
 use icp_core::{Registrar, Scan};
 use nalgebra::{Isometry2, Point2, Vector2};
 use proptest::prelude::*;
@@ -27,6 +26,11 @@ fn spread_points(seed: u64, n: usize, spacing: f64) -> Vec<[f64; 2]> {
 
 /// A harbour-like scene: quay walls and a hull sampled every 0.5 m, as a LIDAR sees them.
 fn structured_points(seed: u64) -> Vec<[f64; 2]> {
+    structured_points_every(seed, 0.5)
+}
+
+/// The same scene with walls sampled every `spacing_m`.
+fn structured_points_every(seed: u64, spacing_m: f64) -> Vec<[f64; 2]> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let corners: [[f64; 2]; 5] = [
         [-25.0, -12.0],
@@ -39,7 +43,7 @@ fn structured_points(seed: u64) -> Vec<[f64; 2]> {
     for w in corners.windows(2) {
         let (a, b) = (w[0], w[1]);
         let len = (b[0] - a[0]).hypot(b[1] - a[1]);
-        let n = (len / 0.5) as usize;
+        let n = (len / spacing_m) as usize;
         for i in 0..n {
             let s = i as f64 / n as f64;
             pts.push([a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])]);
@@ -63,40 +67,79 @@ fn transform(t: &Isometry2<f64>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
         .collect()
 }
 
+/// Every built-in variant with every matcher.
 fn registrars() -> Vec<Box<dyn Registrar>> {
-    let mut out = Vec::new();
-    for matcher in [
-        MatcherKind::Kdtree,
-        MatcherKind::Delaunay,
-        MatcherKind::Brute,
-    ] {
-        let config = VariantConfig {
-            matcher,
-            ..Default::default()
-        };
-        for v in builtin_names() {
-            out.push(builtin(v, &config).unwrap().build().unwrap());
+    let mut out: Vec<Box<dyn Registrar>> = Vec::new();
+    for matcher in ["grid", "kdtree", "delaunay", "brute"] {
+        for spec in builtins() {
+            let spec = spec
+                .with_param("matcher.kind", matcher.into())
+                .unwrap()
+                .unwrap();
+            out.push(Box::new(spec.build().unwrap()));
         }
     }
     out
 }
 
+/// The point-to-point variants (`true`: they need no surface normals, and random points have
+/// none), or the others.
+fn point_to_point(yes: bool) -> Vec<Box<dyn Registrar>> {
+    registrars()
+        .into_iter()
+        .filter(|r| (r.spec().metric.kind == "point_to_point") == yes)
+        .collect()
+}
+
+/// Each variant recovers `truth` from `init` on the structured scene: the point-to-point ones
+/// with walls sampled every 0.5 m, the ones that estimate surface normals every 0.25 m (their
+/// default neighbourhood, 5 to 10 points within 1 m, needs that density).
+fn assert_structured_recovers(
+    seed: u64,
+    truth: Isometry2<f64>,
+    init: Isometry2<f64>,
+) -> Result<(), TestCaseError> {
+    assert_recovers(&point_to_point(true), &structured_points(seed), truth, init)?;
+    assert_recovers(
+        &point_to_point(false),
+        &structured_points_every(seed, 0.25),
+        truth,
+        init,
+    )
+}
+
+fn built(name: &str) -> Box<dyn Registrar> {
+    Box::new(builtin(name).unwrap().build().unwrap())
+}
+
 fn assert_recovers(
+    registrars: &[Box<dyn Registrar>],
     source: &[[f64; 2]],
     truth: Isometry2<f64>,
     init: Isometry2<f64>,
 ) -> Result<(), TestCaseError> {
     let src = Scan::from_cartesian(source).unwrap();
     let reference = Scan::from_cartesian(&transform(&truth, source)).unwrap();
-    for reg in registrars() {
+    for reg in registrars {
         let out = reg.register(&src, &reference, init).unwrap();
         let dt = (out.t_ref_src.translation.vector - truth.translation.vector).norm();
         let dr = (out.t_ref_src.rotation.angle() - truth.rotation.angle()).abs();
         prop_assert!(dt < 1e-6, "{}: translation error {dt} m", reg.name());
         prop_assert!(dr < 1e-6, "{}: rotation error {dr} rad", reg.name());
         prop_assert!(out.converged(), "{} did not converge", reg.name());
-        prop_assert!(out.mean_dist_m < 1e-6);
-        prop_assert_eq!(out.n_pairs, source.len());
+        prop_assert!(
+            out.mean_residual_m < 1e-6,
+            "{}: {}",
+            reg.name(),
+            out.mean_residual_m
+        );
+        prop_assert_eq!(out.n_pairs + out.n_unusable, source.len());
+        prop_assert!(
+            out.n_pairs * 2 > source.len(),
+            "{}: {} pairs used",
+            reg.name(),
+            out.n_pairs
+        );
     }
     Ok(())
 }
@@ -120,7 +163,7 @@ proptest! {
     ) {
         let truth = Isometry2::new(Vector2::new(t_len * t_dir.cos(), t_len * t_dir.sin()), theta_deg.to_radians());
         let source = spread_points(seed, 150, 1.0);
-        assert_recovers(&source, truth, perturbed(truth, dx, dy, dth))?;
+        assert_recovers(&point_to_point(true), &source, truth, perturbed(truth, dx, dy, dth))?;
     }
 
     #[test]
@@ -132,7 +175,7 @@ proptest! {
         (dx, dy, dth) in (-0.03..0.03f64, -0.03..0.03f64, -0.05..0.05f64),
     ) {
         let truth = Isometry2::new(Vector2::new(t_len * t_dir.cos(), t_len * t_dir.sin()), theta_deg.to_radians());
-        assert_recovers(&structured_points(seed), truth, perturbed(truth, dx, dy, dth))?;
+        assert_structured_recovers(seed, truth, perturbed(truth, dx, dy, dth))?;
     }
 }
 
@@ -140,7 +183,7 @@ proptest! {
 fn small_motion_from_identity_is_recovered_on_structured_scan() {
     // The usual use: consecutive scans, no prior, a step of 0.3 m and 0.5°.
     let truth = Isometry2::new(Vector2::new(-0.3, 0.05), 0.5f64.to_radians());
-    assert_recovers(&structured_points(1), truth, Isometry2::identity()).unwrap();
+    assert_structured_recovers(1, truth, Isometry2::identity()).unwrap();
 }
 
 #[test]
@@ -155,7 +198,7 @@ fn identical_scans_give_exactly_zero_motion() {
             "{}: {out:?}",
             reg.name()
         );
-        assert_eq!(out.mean_dist_m, 0.0);
+        assert_eq!(out.mean_residual_m, 0.0, "{}", reg.name());
     }
 }
 
@@ -190,11 +233,7 @@ fn huber_beats_plain_icp_with_outliers() {
             Scan::from_cartesian(&moved).unwrap(),
         );
         let err = |v: &str| {
-            let reg = builtin(v, &VariantConfig::default())
-                .unwrap()
-                .build()
-                .unwrap();
-            let out = reg
+            let out = built(v)
                 .register(&src, &reference, Isometry2::identity())
                 .unwrap();
             (out.t_ref_src.translation.vector - truth.translation.vector).norm()
@@ -224,10 +263,7 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
     use icp_core::error::{Degeneracy, ScanRole};
     use icp_core::IcpError;
     let good = Scan::from_cartesian(&structured_points(3)).unwrap();
-    let reg = builtin("HD_ICP", &VariantConfig::default())
-        .unwrap()
-        .build()
-        .unwrap();
+    let reg = built("HD_ICP");
     let id = Isometry2::identity();
     for n in 0..3 {
         let tiny = Scan::from_cartesian(&structured_points(3)[..n]).unwrap();
@@ -241,11 +277,13 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
     }
     let line: Vec<[f64; 2]> = (0..50).map(|i| [i as f64 * 0.3, 5.0]).collect();
     let corridor_wall = Scan::from_cartesian(&line).unwrap();
-    let all_points = VariantConfig {
-        selection: icp_core::variants::SelectionKind::All,
-        ..Default::default()
-    };
-    let reg_all = builtin("HD_ICP", &all_points).unwrap().build().unwrap();
+    let reg_all = builtin("HD_ICP")
+        .unwrap()
+        .with_param("selection.kind", "all".into())
+        .unwrap()
+        .unwrap()
+        .build()
+        .unwrap();
     assert_eq!(
         reg_all.register(&good, &corridor_wall, id).unwrap_err(),
         IcpError::Degenerate {
@@ -271,10 +309,7 @@ fn degenerate_and_tiny_scans_are_typed_errors() {
 /// The conditioning separates a scene that constrains every direction from a corridor.
 #[test]
 fn conditioning_flags_a_corridor_and_not_a_harbour() {
-    let reg = builtin("HD_ICP", &VariantConfig::default())
-        .unwrap()
-        .build()
-        .unwrap();
+    let reg = built("HD_ICP");
     let harbour = structured_points(4);
     let t = Isometry2::new(Vector2::new(-0.2, 0.05), 0.01);
     let out = reg
@@ -349,8 +384,9 @@ fn huge_coordinates_register_like_near_ones() {
             reg.name()
         );
         // HM, HD and IR weigh by range, and every range is ~1.4e9 m far away: their
-        // solutions legitimately differ. Uniform weights must not.
-        if reg.name() == "K_ICP" || reg.name() == "H_ICP" {
+        // solutions legitimately differ (and so do those that add the sensor's covariance,
+        // which grows with range). Uniform weights must not.
+        if ["K_ICP", "H_ICP", "PL_ICP", "GICP"].contains(&reg.name()) {
             assert!(
                 (d_near - d_far).norm() < 1e-4,
                 "{}: {d_near:?} vs {d_far:?}",
@@ -370,14 +406,13 @@ fn huge_coordinates_register_like_near_ones() {
 fn the_iteration_limit_stops_a_registration() {
     let pts = structured_points(6);
     let t = Isometry2::new(Vector2::new(-2.0, 1.5), 0.3);
-    let config = VariantConfig {
-        termination: icp_core::Termination {
-            max_iterations: 3,
-            mean_dist_change_eps_m: 0.0,
-        },
+    let mut spec = builtin("HD_ICP").unwrap();
+    spec.termination = icp_core::Termination {
+        max_iterations: 3,
+        mean_residual_change_eps_m: 0.0,
         ..Default::default()
     };
-    let reg = builtin("HD_ICP", &config).unwrap().build().unwrap();
+    let reg = spec.build().unwrap();
     let out = reg
         .register(
             &Scan::from_cartesian(&pts).unwrap(),

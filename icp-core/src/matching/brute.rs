@@ -3,11 +3,19 @@
 use nalgebra::Point2;
 
 use super::{check_reference, Matcher, NearestIndex};
+use crate::registry::{Kind, NoParams, StageKind, StageSpec};
 use crate::IcpError;
 
 /// O(n) search per query; among equidistant points it returns the lowest index.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BruteForce;
+
+/// The registered kind.
+pub const KIND: Kind<NoParams, dyn Matcher> = Kind::new(
+    "brute",
+    "exhaustive search: the oracle the other matchers are tested against",
+    |_, _| Box::new(BruteForce),
+);
 
 /// The reference points, searched exhaustively.
 #[derive(Clone, Debug)]
@@ -16,12 +24,15 @@ pub struct BruteForceIndex {
 }
 
 impl Matcher for BruteForce {
-    type Index = BruteForceIndex;
-    fn build(&self, reference: &[Point2<f64>]) -> Result<Self::Index, IcpError> {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(KIND.name())
+    }
+
+    fn build(&self, reference: &[Point2<f64>]) -> Result<Box<dyn NearestIndex>, IcpError> {
         check_reference(reference)?;
-        Ok(BruteForceIndex {
+        Ok(Box::new(BruteForceIndex {
             points: reference.to_vec(),
-        })
+        }))
     }
 }
 

@@ -5,6 +5,7 @@ use nalgebra::Point2;
 use spade::{DelaunayTriangulation, HasPosition};
 
 use super::{check_reference, Matcher, NearestIndex};
+use crate::registry::{Kind, NoParams, StageKind, StageSpec};
 use crate::IcpError;
 
 /// Nearest vertex by a greedy walk on the Delaunay triangulation, which is exact because the
@@ -12,6 +13,13 @@ use crate::IcpError;
 /// found last, so queries in scan order take a few steps each.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Delaunay;
+
+/// The registered kind.
+pub const KIND: Kind<NoParams, dyn Matcher> = Kind::new(
+    "delaunay",
+    "nearest vertex on a Delaunay triangulation (spade), as in the paper (Naus & Marchel 2019, Alg. 1 step 2): exact",
+    |_, _| Box::new(Delaunay),
+);
 
 #[derive(Clone, Copy, Debug)]
 struct Vertex {
@@ -33,8 +41,11 @@ pub struct DelaunayIndex {
 }
 
 impl Matcher for Delaunay {
-    type Index = DelaunayIndex;
-    fn build(&self, reference: &[Point2<f64>]) -> Result<Self::Index, IcpError> {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(KIND.name())
+    }
+
+    fn build(&self, reference: &[Point2<f64>]) -> Result<Box<dyn NearestIndex>, IcpError> {
         check_reference(reference)?;
         let vertices: Vec<Vertex> = reference
             .iter()
@@ -50,10 +61,10 @@ impl Matcher for Delaunay {
             let (index, value) = vertices_out_of_range(reference);
             IcpError::CoordinateOutOfRange { index, value }
         })?;
-        Ok(DelaunayIndex {
+        Ok(Box::new(DelaunayIndex {
             triangulation,
             points: reference.to_vec(),
-        })
+        }))
     }
 }
 

@@ -4,11 +4,19 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use nalgebra::Point2;
 
 use super::{check_reference, Matcher, NearestIndex};
+use crate::registry::{Kind, NoParams, StageKind, StageSpec};
 use crate::IcpError;
 
 /// Exact nearest neighbour with a k-d tree; gives the same pairs as the paper's Delaunay search.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct KdTree;
+
+/// The registered kind.
+pub const KIND: Kind<NoParams, dyn Matcher> = Kind::new(
+    "kdtree",
+    "k-d tree (kiddo): exact nearest neighbour",
+    |_, _| Box::new(KdTree),
+);
 
 /// A k-d tree over the reference points.
 pub struct KdTreeIndex {
@@ -17,8 +25,11 @@ pub struct KdTreeIndex {
 }
 
 impl Matcher for KdTree {
-    type Index = KdTreeIndex;
-    fn build(&self, reference: &[Point2<f64>]) -> Result<Self::Index, IcpError> {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(KIND.name())
+    }
+
+    fn build(&self, reference: &[Point2<f64>]) -> Result<Box<dyn NearestIndex>, IcpError> {
         check_reference(reference)?;
         let coords: Vec<[f64; 2]> = reference.iter().map(|p| [p.x, p.y]).collect();
         let tree =
@@ -27,10 +38,10 @@ impl Matcher for KdTree {
                 value: reference.len() as f64,
                 reason: "the k-d tree could not be built over these points",
             })?;
-        Ok(KdTreeIndex {
+        Ok(Box::new(KdTreeIndex {
             tree,
             points: reference.to_vec(),
-        })
+        }))
     }
 }
 

@@ -1,11 +1,12 @@
 //! Nearest-neighbour matching, Algorithm 1 step 2.
 //!
-//! A [`Matcher`] is the stage's configuration; it builds a [`NearestIndex`] once per reference
-//! scan, which then answers one query per moved source point at every iteration.
+//! A [`Matcher`] is the stage's configuration; it builds a [`NearestIndex`] once per
+//! registration over the selected reference points, which then answers one query per moved
+//! source point at every iteration.
 
 use nalgebra::Point2;
-use serde::{Deserialize, Serialize};
 
+use crate::registry::{Family, StageSpec};
 use crate::IcpError;
 
 mod brute;
@@ -30,137 +31,42 @@ pub struct Correspondence {
     pub dist_sq: f64,
 }
 
-/// The pairs of the last [`NearestIndex::match_all`] call, and what an index remembers about
-/// each query to answer the next call (the next ICP iteration) with less work. One value is
-/// reused across iterations and registrations: its buffers keep their capacity, and memory left
-/// by another index is recognised and ignored.
-#[derive(Clone, Debug, Default)]
-pub struct Matches {
-    /// One correspondence per query, in query order.
-    pub pairs: Vec<Correspondence>,
-    /// Per query, for the index that wrote them (see `owner`): a proof of its nearest point.
-    certificates: Vec<Certificate>,
-    /// The build stamp of the index that wrote `certificates` (0: none).
-    owner: u64,
-}
-
-/// At `anchor`, every reference point other than `best` and `second` (the two nearest) was at
-/// least `clearance` away. For a query `q` at `drift = |q − anchor|` those points are at least
-/// `clearance − drift` from `q` (triangle inequality), so while the nearer of the two is nearer
-/// than that, it is the nearest point. `best`/`dist_sq` are the last answer.
-#[derive(Clone, Copy, Debug)]
-struct Certificate {
-    anchor: Point2<f64>,
-    clearance: f64,
-    best: usize,
-    second: usize,
-    dist_sq: f64,
-}
-
-impl Matches {
-    /// Empty, with room for `n` queries.
-    pub fn with_capacity(n: usize) -> Self {
-        Self {
-            pairs: Vec::with_capacity(n),
-            certificates: Vec::with_capacity(n),
-            owner: 0,
-        }
-    }
-
-    /// Makes room for `n` queries.
-    pub fn reserve(&mut self, n: usize) {
-        self.pairs.reserve(n);
-        self.certificates.reserve(n);
-    }
-
-    /// Becomes a copy of `other`, in the buffers it already has.
-    pub fn copy_from(&mut self, other: &Matches) {
-        self.pairs.clone_from(&other.pairs);
-        self.certificates.clone_from(&other.certificates);
-        self.owner = other.owner;
-    }
-
-    /// Forgets the pairs and what the index remembered (keeping the capacity): the next call
-    /// searches every query afresh.
-    pub fn clear(&mut self) {
-        self.pairs.clear();
-        self.certificates.clear();
-        self.owner = 0;
-    }
-}
-
-/// A nearest-neighbour index over the reference points.
+/// A nearest-neighbour index over the reference points, built once per registration.
 pub trait NearestIndex: Send + Sync {
     /// Index and squared distance of the reference point nearest to `query`. Among points at
     /// exactly the same distance any may be returned.
     fn nearest(&self, query: &Point2<f64>) -> (usize, f64);
 
-    /// Fills `out.pairs` with one correspondence per moved source point. An index may use what
-    /// it left in `out` at its previous call to do less work; the pairs are the same either way.
-    fn match_all(&self, moved_src: &[Point2<f64>], out: &mut Matches) {
-        out.owner = 0;
-        out.pairs.clear();
-        out.pairs
-            .extend(moved_src.iter().enumerate().map(|(src, q)| {
-                let (dst, dist_sq) = self.nearest(q);
-                Correspondence { src, dst, dist_sq }
-            }));
+    /// Fills `out` (cleared first) with one correspondence per query, in query order. An index
+    /// may keep what it learnt about each query at its previous call (the previous ICP
+    /// iteration) to do less work; the pairs are the same either way.
+    fn match_all(&mut self, queries: &[Point2<f64>], out: &mut Vec<Correspondence>) {
+        out.clear();
+        out.extend(queries.iter().enumerate().map(|(src, q)| {
+            let (dst, dist_sq) = self.nearest(q);
+            Correspondence { src, dst, dist_sq }
+        }));
     }
 }
 
-/// Builds a [`NearestIndex`] over a reference scan. An [`crate::Icp`] chain needs its matcher
-/// to be `PartialEq + Clone + 'static` too: a [`crate::Workspace`] keeps the last index with
-/// the matcher that built it, and hands it to the next registration with an equal matcher and
-/// the same reference points.
+/// Matching, Algorithm 1 step 2: builds a [`NearestIndex`] over a reference scan.
 pub trait Matcher: Send + Sync {
-    /// The index this matcher builds.
-    type Index: NearestIndex;
+    /// What this stage is, as configuration data.
+    fn spec(&self) -> StageSpec {
+        StageSpec::unregistered::<Self>()
+    }
+
     /// Builds the index over `reference` (non-empty, finite points).
-    fn build(&self, reference: &[Point2<f64>]) -> Result<Self::Index, IcpError>;
+    fn build(&self, reference: &[Point2<f64>]) -> Result<Box<dyn NearestIndex>, IcpError>;
 }
 
-/// The matchers by name, for configuration files and the command line.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MatcherKind {
-    /// k-d tree ([`KdTree`]).
-    Kdtree,
-    /// Delaunay nearest vertex, as in the paper ([`Delaunay`]).
-    Delaunay,
-    /// Exhaustive search ([`BruteForce`]), the oracle for tests.
-    Brute,
-    /// Uniform grid whose queries keep their nearest point between iterations while a
-    /// certificate proves it ([`Grid`]): the default, the fastest here, and with the same pairs
-    /// as brute force.
-    #[default]
-    Grid,
-}
-
-impl std::str::FromStr for MatcherKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s.to_ascii_lowercase().as_str() {
-            "kdtree" | "kd-tree" => Ok(Self::Kdtree),
-            "delaunay" => Ok(Self::Delaunay),
-            "brute" | "brute-force" => Ok(Self::Brute),
-            "grid" => Ok(Self::Grid),
-            other => Err(format!(
-                "unknown matcher {other:?}: expected kdtree, delaunay, grid or brute"
-            )),
-        }
-    }
-}
-
-impl std::fmt::Display for MatcherKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            Self::Kdtree => "kdtree",
-            Self::Delaunay => "delaunay",
-            Self::Brute => "brute",
-            Self::Grid => "grid",
-        })
-    }
-}
+/// Every registered matcher. Adding one: a file with its `impl Matcher` and its `KIND`, and
+/// one line here.
+pub static MATCHERS: Family<dyn Matcher> = Family {
+    name: "matcher",
+    summary: "Alg. 1 step 2: the nearest reference point of each moved source point (every kind is exact)",
+    kinds: &[&grid::KIND, &kdtree::KIND, &delaunay::KIND, &brute::KIND],
+};
 
 /// Checks what every index needs: at least one point, all finite, indices fit in `u32`.
 fn check_reference(reference: &[Point2<f64>]) -> Result<(), IcpError> {
@@ -296,9 +202,9 @@ mod tests {
                 reference.push(p);
             }
             let mut queries = points(&queries);
-            let brute = BruteForce.build(&reference).unwrap();
-            let grid = Grid.build(&reference).unwrap();
-            let (mut want, mut got) = (Matches::default(), Matches::default());
+            let mut brute = BruteForce.build(&reference).unwrap();
+            let mut grid = Grid.build(&reference).unwrap();
+            let (mut want, mut got) = (Vec::new(), Vec::new());
             for (k, &(dx, dy, angle)) in steps.iter().enumerate() {
                 // Steps shrinking like an ICP's, about the origin.
                 let scale = 0.5f64.powi(k as i32);
@@ -308,28 +214,28 @@ mod tests {
                 }
                 brute.match_all(&queries, &mut want);
                 grid.match_all(&queries, &mut got);
-                prop_assert_eq!(&got.pairs, &want.pairs);
+                prop_assert_eq!(&got, &want);
             }
         }
     }
 
     #[test]
-    fn matches_left_by_another_index_are_not_trusted() {
-        // The same query count on two different references: the second index must not take
-        // the first one's certificates for its own.
-        let a = points(&[(0.0, 0.0), (10.0, 0.0), (20.0, 0.0)]);
-        // At (1, 0) the first index certifies its point 0 with clearance 9; point 0 of the
-        // second is 1.1 from it, inside that clearance, but its point 1 is nearer.
-        let b = points(&[(0.0, 0.5), (1.0, 0.1), (20.0, 0.0)]);
-        let queries = points(&[(1.0, 0.0), (9.0, 0.0), (19.0, 0.0)]);
-        let mut m = Matches::default();
-        Grid.build(&a).unwrap().match_all(&queries, &mut m);
-        let mut want = Matches::default();
-        let bb = BruteForce.build(&b).unwrap();
-        bb.match_all(&queries, &mut want);
-        Grid.build(&b).unwrap().match_all(&queries, &mut m);
-        assert_eq!(m.pairs, want.pairs);
-        assert_eq!(m.pairs[0].dst, 1);
+    fn a_grid_index_answers_new_queries_of_the_same_count_exactly() {
+        // Certificates bound the index's own points from their anchors, so they stay valid
+        // when the next call asks other queries (here far from the first ones).
+        let reference = points(&[(0.0, 0.5), (1.0, 0.1), (20.0, 0.0), (9.0, 3.0)]);
+        let mut grid = Grid.build(&reference).unwrap();
+        let mut brute = BruteForce.build(&reference).unwrap();
+        let (mut got, mut want) = (Vec::new(), Vec::new());
+        for queries in [
+            points(&[(1.0, 0.0), (9.0, 0.0), (19.0, 0.0)]),
+            points(&[(19.0, 0.5), (0.2, 0.4), (8.0, 2.0)]),
+            points(&[(1.0, 0.0), (9.0, 0.0), (19.0, 0.0)]),
+        ] {
+            grid.match_all(&queries, &mut got);
+            brute.match_all(&queries, &mut want);
+            assert_eq!(got, want);
+        }
     }
 
     #[test]

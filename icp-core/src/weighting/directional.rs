@@ -1,6 +1,7 @@
 //! Directional weights (Naus & Marchel 2019, eqs. 9, 11 and 12): the HD_ICP variant.
 
 use super::{PairView, PairWeighting};
+use crate::registry::{Kind, NoParams, StageKind, StageSpec};
 use crate::SensorModel;
 
 /// `w = 1 / sqrt(σ_β²(k) + σ_β²(k+1))`, with `σ_β²` each point's variance (eq. 9) along the
@@ -15,7 +16,18 @@ pub struct Directional {
     pub sensor: SensorModel,
 }
 
+/// The registered kind.
+pub const KIND: Kind<NoParams, dyn PairWeighting> = Kind::new(
+    "directional",
+    "w = 1/sqrt(σ²_β(k) + σ²_β(k+1)) along the line joining the pair (Naus & Marchel 2019, eqs. 9, 11, 12: HD_ICP)",
+    |_, ctx| Box::new(Directional { sensor: ctx.sensor }),
+);
+
 impl PairWeighting for Directional {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(KIND.name())
+    }
+
     /// Computed without trigonometry: the cosine of the angle between the pair's line and a
     /// point's beam is `d · p / (|d| r)` (in scan k's frame for the source point, whose beam
     /// direction `R p` is the moved point minus the translation; in scan k+1's frame for the
@@ -67,6 +79,7 @@ mod tests {
             dst: &dst_along,
             src_moved: src.point,
             rotation_ref_src: UnitComplex::identity(),
+            normal: None,
         });
         let sr = |r: f64| 0.004258 * r;
         let hand = 1.0 / (sr(20.0).powi(2) + sr(20.3).powi(2)).sqrt();
@@ -83,6 +96,7 @@ mod tests {
             dst: &dst_across,
             src_moved: src.point,
             rotation_ref_src: UnitComplex::identity(),
+            normal: None,
         });
         let ratio = along / across;
         assert!(
@@ -107,6 +121,7 @@ mod tests {
             dst: &dst,
             src_moved: moved,
             rotation_ref_src: rot,
+            normal: None,
         });
         // Same geometry, with scan k already expressed in scan k+1's orientation.
         let src_rot = ret(15.0, 0.2 + theta);
@@ -115,6 +130,7 @@ mod tests {
             dst: &dst,
             src_moved: src_rot.point,
             rotation_ref_src: UnitComplex::identity(),
+            normal: None,
         });
         assert!((a - b).abs() < 1e-9 * a, "{a} vs {b}");
     }
@@ -143,6 +159,7 @@ mod tests {
                 dst: &dst,
                 src_moved: moved,
                 rotation_ref_src: rot,
+                normal: None,
             });
             assert!(
                 (got - 1.0 / g.sqrt()).abs() < 1e-9 * got,
@@ -161,6 +178,7 @@ mod tests {
             dst: &p,
             src_moved: p.point,
             rotation_ref_src: UnitComplex::identity(),
+            normal: None,
         });
         let expected = 1.0 / sensor.mean_error_sq(10.0).sqrt();
         assert!((w - expected).abs() < 1e-12 * w);

@@ -1,18 +1,46 @@
 //! Inverse-range weights: the worked example of adding a pair-weighting scheme.
 
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
 use super::{PairView, PairWeighting};
+use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 
 /// `w = 1 / (r₀ + (r_k + r_k+1) / 2)`: trusts near returns more than far ones, with no sensor
 /// model. The idea behind it is the paper's eq. 5 without the range-independent terms: the
 /// across-beam error `σ_α r` grows with range. `r₀` keeps the weight of very near returns
 /// bounded.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
 pub struct InverseRange {
-    /// Range added before inverting, metres.
+    /// Range added to the mean range before inverting, metres (> 0).
     pub r0_m: f64,
 }
 
+impl Default for InverseRange {
+    fn default() -> Self {
+        Self { r0_m: 1.0 }
+    }
+}
+
+impl Params for InverseRange {
+    fn validate(&self) -> Result<(), ParamError> {
+        ParamError::check_positive("r0_m", self.r0_m)
+    }
+}
+
+/// The registered kind.
+pub const KIND: Kind<InverseRange, dyn PairWeighting> = Kind::new(
+    "inverse_range",
+    "w = 1/(r0 + mean range): near returns trusted more (icp-bench worked example of a new scheme)",
+    |p, _| Box::new(p),
+);
+
 impl PairWeighting for InverseRange {
+    fn spec(&self) -> StageSpec {
+        StageSpec::of(KIND.name(), self)
+    }
+
     #[inline]
     fn weight(&self, pair: &PairView<'_>) -> f64 {
         1.0 / (self.r0_m + 0.5 * (pair.src.range_m + pair.dst.range_m))
@@ -40,6 +68,7 @@ mod tests {
                 dst: b,
                 src_moved: a.point,
                 rotation_ref_src: UnitComplex::identity(),
+                normal: None,
             })
         };
         assert_eq!(view(&a, &b), 1.0 / 16.0);

@@ -1,6 +1,7 @@
 //! Mean-error weights (Naus & Marchel 2019, eqs. 11 and 13): the HM_ICP variant.
 
 use super::{PairView, PairWeighting};
+use crate::registry::{Kind, NoParams, StageKind, StageSpec};
 use crate::SensorModel;
 
 /// `w = 1 / sqrt(M²(k) + M²(k+1))` with `M² = (σ_α r)² + σ_r²` of each point (eqs. 5, 11, 13).
@@ -10,7 +11,18 @@ pub struct MeanError {
     pub sensor: SensorModel,
 }
 
+/// The registered kind.
+pub const KIND: Kind<NoParams, dyn PairWeighting> = Kind::new(
+    "mean_error",
+    "w = 1/sqrt(M²(k) + M²(k+1)), M² the mean position error of each point (Naus & Marchel 2019, eqs. 5, 11, 13: HM_ICP)",
+    |_, ctx| Box::new(MeanError { sensor: ctx.sensor }),
+);
+
 impl PairWeighting for MeanError {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(KIND.name())
+    }
+
     #[inline]
     fn weight(&self, pair: &PairView<'_>) -> f64 {
         let g = self.sensor.mean_error_sq(pair.src.range_m)
@@ -39,6 +51,7 @@ mod tests {
             dst: &b,
             src_moved: a.point,
             rotation_ref_src: UnitComplex::identity(),
+            normal: None,
         };
         let s = 0.5f64.to_radians();
         let g = (s * 10.0).powi(2) + 0.04258f64.powi(2) + (s * 20.0).powi(2) + 0.08516f64.powi(2);

@@ -1,24 +1,39 @@
 //! Pair weighting, Algorithm 1 step 3 (Naus & Marchel 2019, eqs. 11–13).
 //!
 //! A scheme sees one pair at a time through [`PairView`], so a new scheme is a few lines: see
-//! the README's recipe.
+//! the README's recipe (one file with its `impl PairWeighting` and its `KIND`, and one line in
+//! [`WEIGHTINGS`]).
 
-use nalgebra::{Point2, UnitComplex};
+use nalgebra::{Point2, UnitComplex, Vector2};
 
-use crate::matching::Correspondence;
-use serde::{Deserialize, Serialize};
-
+use crate::pairs::PairSet;
+use crate::registry::{Family, StageSpec};
 use crate::scan::Return;
 
 mod directional;
 mod inverse_range;
 mod mean_error;
+mod normal_directional;
 mod uniform;
 
 pub use directional::Directional;
 pub use inverse_range::InverseRange;
 pub use mean_error::MeanError;
+pub use normal_directional::NormalDirectional;
 pub use uniform::Uniform;
+
+/// Every registered weighting scheme, one line each.
+pub static WEIGHTINGS: Family<dyn PairWeighting> = Family {
+    name: "weighting",
+    summary: "Alg. 1 step 3: the weight w_i of each pair in eq. 14",
+    kinds: &[
+        &uniform::KIND,
+        &mean_error::KIND,
+        &directional::KIND,
+        &normal_directional::KIND,
+        &inverse_range::KIND,
+    ],
+};
 
 /// What a weighting scheme knows about one matched pair.
 #[derive(Clone, Copy, Debug)]
@@ -32,95 +47,88 @@ pub struct PairView<'a> {
     /// Rotation of the current estimate `t_ref_src`: a direction `β` in scan k+1's frame is
     /// `β − θ` in scan k's frame.
     pub rotation_ref_src: UnitComplex<f64>,
-}
-
-/// The pairs of one iteration, from which each [`PairView`] is made.
-#[derive(Clone, Copy, Debug)]
-pub struct PairBatch<'a> {
-    /// The matched pairs (indices into `src`/`src_moved` and `dst`).
-    pub pairs: &'a [Correspondence],
-    /// The source returns (scan k), in scan k's frame.
-    pub src: &'a [Return],
-    /// The reference returns (scan k+1), in scan k+1's frame.
-    pub dst: &'a [Return],
-    /// The source points moved by the current estimate into scan k+1's frame.
-    pub src_moved: &'a [Point2<f64>],
-    /// Rotation of the current estimate `t_ref_src`.
-    pub rotation_ref_src: UnitComplex<f64>,
+    /// The unit normal of the reference surface at `dst`, in scan k+1's frame, when it has a
+    /// usable estimate (see [`crate::surface`]).
+    pub normal: Option<Vector2<f64>>,
 }
 
 /// Gives each pair its weight `w_i` of eq. 14.
 pub trait PairWeighting: Send + Sync {
+    /// What this stage is, as configuration data (a scheme written outside the registry
+    /// reports its Rust type).
+    fn spec(&self) -> StageSpec {
+        StageSpec::unregistered::<Self>()
+    }
+
     /// The weight of one pair: finite and positive.
     fn weight(&self, pair: &PairView<'_>) -> f64;
 
-    /// The weights of every pair of `batch`, in order, into `out` (cleared first). There is no
+    /// The weights of every pair of `set`, in order, into `out` (cleared first). There is no
     /// need to override it: it exists so that a boxed scheme costs one dynamic call per
     /// iteration, with [`PairWeighting::weight`] inlined in the loop, not one call per pair.
-    fn weigh_all(&self, batch: &PairBatch<'_>, out: &mut Vec<f64>) {
+    fn weigh_all(&self, set: &PairSet<'_>, out: &mut Vec<f64>) {
         out.clear();
-        out.extend(batch.pairs.iter().map(|c| {
+        out.extend(set.pairs.iter().map(|c| {
             self.weight(&PairView {
-                src: &batch.src[c.src],
-                dst: &batch.dst[c.dst],
-                src_moved: batch.src_moved[c.src],
-                rotation_ref_src: batch.rotation_ref_src,
+                src: &set.src[c.src],
+                dst: &set.dst[c.dst],
+                src_moved: set.src_moved[c.src],
+                rotation_ref_src: set.rotation_ref_src,
+                normal: set.dst_surfaces[c.dst].map(|s| s.normal),
             })
         }));
     }
 }
 
-impl<W: PairWeighting + ?Sized> PairWeighting for Box<W> {
-    #[inline]
-    fn weight(&self, pair: &PairView<'_>) -> f64 {
-        (**self).weight(pair)
-    }
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::registry::BuildContext;
+    use crate::SensorModel;
 
-    fn weigh_all(&self, batch: &PairBatch<'_>, out: &mut Vec<f64>) {
-        (**self).weigh_all(batch, out)
-    }
-}
-
-/// The weighting schemes by name, for configuration files and the command line. Adding a
-/// scheme: one file with its `impl PairWeighting`, one arm here and one in [`WeightingSpec::build`].
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum WeightingSpec {
-    /// [`Uniform`]: every pair weighs 1.
-    Uniform,
-    /// [`MeanError`]: eq. 13, from the variant's sensor model.
-    MeanError,
-    /// [`Directional`]: eq. 12, from the variant's sensor model.
-    Directional,
-    /// [`InverseRange`]: the worked example of a new scheme.
-    InverseRange {
-        /// Range added to both ranges before weighting, metres (> 0).
-        r0_m: f64,
-    },
-}
-
-impl WeightingSpec {
-    /// Checks the scheme's parameters.
-    pub fn validate(&self) -> Result<(), crate::IcpError> {
-        match *self {
-            WeightingSpec::InverseRange { r0_m } if !(r0_m.is_finite() && r0_m > 0.0) => {
-                Err(crate::IcpError::InvalidParameter {
-                    name: "inverse_range.r0_m",
-                    value: r0_m,
-                    reason: "must be finite and positive",
-                })
-            }
-            _ => Ok(()),
+    /// A return at range `r`, bearing `a`.
+    pub(crate) fn ret(r: f64, a: f64) -> Return {
+        Return {
+            point: Point2::new(r * a.cos(), r * a.sin()),
+            range_m: r,
+            bearing_rad: a,
         }
     }
 
-    /// The scheme, with `sensor` for those that need an error model.
-    pub fn build(&self, sensor: crate::SensorModel) -> Box<dyn PairWeighting> {
-        match *self {
-            WeightingSpec::Uniform => Box::new(Uniform),
-            WeightingSpec::MeanError => Box::new(MeanError { sensor }),
-            WeightingSpec::Directional => Box::new(Directional { sensor }),
-            WeightingSpec::InverseRange { r0_m } => Box::new(InverseRange { r0_m }),
+    /// The view of `src` → `dst` at the identity, with `normal`.
+    pub(crate) fn view<'a>(
+        src: &'a Return,
+        dst: &'a Return,
+        normal: Option<Vector2<f64>>,
+    ) -> PairView<'a> {
+        PairView {
+            src,
+            dst,
+            src_moved: src.point,
+            rotation_ref_src: UnitComplex::identity(),
+            normal,
+        }
+    }
+
+    #[test]
+    fn every_kind_builds_reports_itself_and_weighs_positively() {
+        let ctx = BuildContext {
+            sensor: SensorModel::sweep(),
+        };
+        let (a, b) = (ret(12.0, 0.3), ret(12.2, 0.31));
+        for kind in WEIGHTINGS.kinds {
+            let spec = StageSpec::kind(kind.name());
+            let scheme = WEIGHTINGS.build(&spec, &ctx).unwrap();
+            assert_eq!(
+                scheme.spec(),
+                WEIGHTINGS.normalize(&spec).unwrap(),
+                "{}",
+                kind.name()
+            );
+            for normal in [None, Some(Vector2::new(0.0, 1.0))] {
+                let w = scheme.weight(&view(&a, &b, normal));
+                assert!(w.is_finite() && w > 0.0, "{}: {w}", kind.name());
+            }
         }
     }
 }

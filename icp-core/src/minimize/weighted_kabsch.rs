@@ -1,22 +1,20 @@
-//! Minimisation of eq. 14, Algorithm 1 step 5: the weighted SVD (Kabsch) solution.
+//! The weighted SVD (Kabsch) solution of eq. 14, in closed form.
 
 use nalgebra::{Isometry2, Matrix2, Point2, Translation2, UnitComplex, Vector2};
 
+use super::Minimizer;
 use crate::matching::Correspondence;
+use crate::metric::Metric;
+use crate::pairs::PairSet;
+use crate::registry::{Kind, NoParams, StageKind, StageSpec};
 use crate::IcpError;
 
-/// Solves for the rigid increment minimising `Σ w_i ‖R p_i + T − q_i‖²` (eq. 14).
-pub trait Minimizer: Send + Sync {
-    /// `src[pair.src]` are the moved source points, `dst[pair.dst]` the reference points and
-    /// `weights[i]` the weight of `pairs[i]`. Returns the increment `t_ref_moved`.
-    fn solve(
-        &self,
-        src: &[Point2<f64>],
-        dst: &[Point2<f64>],
-        pairs: &[Correspondence],
-        weights: &[f64],
-    ) -> Result<Isometry2<f64>, IcpError>;
-}
+/// The registered kind.
+pub const KIND: Kind<NoParams, dyn Minimizer> = Kind::new(
+    "weighted_kabsch",
+    "closed-form weighted SVD of the point-to-point cost, with the reflection guard (Naus & Marchel 2019, eqs. 15–20)",
+    |_, _| Box::new(WeightedKabsch),
+);
 
 /// Weighted Kabsch (Naus & Marchel 2019, eqs. 15–20; the printed eqs. 16, 19 and 20 have
 /// index and direction slips, this is the standard solution of eq. 14): weighted centroids
@@ -84,29 +82,54 @@ pub fn weighted_moments(
 }
 
 impl Minimizer for WeightedKabsch {
+    fn spec(&self) -> StageSpec {
+        StageSpec::kind(KIND.name())
+    }
+
+    fn check(&self, metric: &dyn Metric) -> Result<(), String> {
+        if metric.isotropic() {
+            Ok(())
+        } else {
+            Err(format!(
+                "minimizer weighted_kabsch solves the point-to-point cost only; metric {} needs gauss_newton",
+                metric.spec().kind
+            ))
+        }
+    }
+
     fn solve(
         &self,
-        src: &[Point2<f64>],
-        dst: &[Point2<f64>],
-        pairs: &[Correspondence],
+        set: &PairSet<'_>,
         weights: &[f64],
+        _metric: &dyn Metric,
     ) -> Result<Isometry2<f64>, IcpError> {
-        let WeightedMoments {
-            m_p,
-            m_q,
-            cross_cov: c,
-            ..
-        } = weighted_moments(src, dst, pairs, weights)?;
-        // tr(R C) = cos θ (C00 + C11) + sin θ (C01 − C10) is largest at this θ: the proper
-        // rotation of the SVD solution with the reflection guard (eqs. 18–20).
-        let theta = (c[(0, 1)] - c[(1, 0)]).atan2(c[(0, 0)] + c[(1, 1)]);
-        let rotation = UnitComplex::new(theta);
-        let t = m_q - rotation * m_p; // eq. 20 (T = m_q − R m_p)
-        if !(t.x.is_finite() && t.y.is_finite() && theta.is_finite()) {
-            return Err(IcpError::NonFiniteTransform);
-        }
-        Ok(Isometry2::from_parts(Translation2::from(t), rotation))
+        kabsch(set.src_moved, set.dst_points, set.pairs, weights)
     }
+}
+
+/// The increment `t_ref_moved` minimising `Σ w_i ‖R p_i + T − q_i‖²` over `pairs`, with
+/// `src[pair.src]` the moved source points and `dst[pair.dst]` the reference points.
+pub fn kabsch(
+    src: &[Point2<f64>],
+    dst: &[Point2<f64>],
+    pairs: &[Correspondence],
+    weights: &[f64],
+) -> Result<Isometry2<f64>, IcpError> {
+    let WeightedMoments {
+        m_p,
+        m_q,
+        cross_cov: c,
+        ..
+    } = weighted_moments(src, dst, pairs, weights)?;
+    // tr(R C) = cos θ (C00 + C11) + sin θ (C01 − C10) is largest at this θ: the proper
+    // rotation of the SVD solution with the reflection guard (eqs. 18–20).
+    let theta = (c[(0, 1)] - c[(1, 0)]).atan2(c[(0, 0)] + c[(1, 1)]);
+    let rotation = UnitComplex::new(theta);
+    let t = m_q - rotation * m_p; // eq. 20 (T = m_q − R m_p)
+    if !(t.x.is_finite() && t.y.is_finite() && theta.is_finite()) {
+        return Err(IcpError::NonFiniteTransform);
+    }
+    Ok(Isometry2::from_parts(Translation2::from(t), rotation))
 }
 
 #[cfg(test)]
@@ -175,12 +198,12 @@ mod tests {
             let pairs = identity_pairs(src.len());
             // Exact data: the transform itself.
             let dst: Vec<_> = src.iter().map(|p| t * p).collect();
-            let est = WeightedKabsch.solve(&src, &dst, &pairs, &w).unwrap();
+            let est = kabsch(&src, &dst, &pairs, &w).unwrap();
             prop_assert!((est.translation.vector - t.translation.vector).norm() < 1e-9);
             prop_assert!((est.rotation.angle() - t.rotation.angle()).abs() < 1e-10);
             // Noisy data: the SVD, the closed form and faer agree on the least-squares optimum.
             let noisy: Vec<_> = dst.iter().zip(&noise).map(|(q, &(a, b))| q + Vector2::new(a, b)).collect();
-            let est = WeightedKabsch.solve(&src, &noisy, &pairs, &w).unwrap();
+            let est = kabsch(&src, &noisy, &pairs, &w).unwrap();
             let c = weighted_moments(&src, &noisy, &pairs, &w).unwrap().cross_cov;
             let wrap = |a: f64| (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
             prop_assert!(wrap(est.rotation.angle() - closed_form(&src, &noisy, &w)).abs() < 1e-9);
@@ -200,9 +223,7 @@ mod tests {
         ];
         let dst: Vec<_> = src.iter().map(|p| Point2::new(p.x, -p.y)).collect();
         let w = [1.0; 4];
-        let est = WeightedKabsch
-            .solve(&src, &dst, &identity_pairs(4), &w)
-            .unwrap();
+        let est = kabsch(&src, &dst, &identity_pairs(4), &w).unwrap();
         let r = est.rotation.to_rotation_matrix().into_inner();
         assert!((r.determinant() - 1.0).abs() < 1e-12);
         let WeightedMoments {
@@ -225,9 +246,7 @@ mod tests {
             .map(|i| Point2::new((i as f64 * 0.7).sin() * 20.0, (i as f64 * 1.3).cos() * 15.0))
             .collect();
         let w: Vec<f64> = (0..50).map(|i| 0.5 + (i % 7) as f64).collect();
-        let est = WeightedKabsch
-            .solve(&src, &src, &identity_pairs(50), &w)
-            .unwrap();
+        let est = kabsch(&src, &src, &identity_pairs(50), &w).unwrap();
         assert_eq!(est, Isometry2::identity());
     }
 
@@ -240,15 +259,15 @@ mod tests {
         ];
         let p = identity_pairs(3);
         assert_eq!(
-            WeightedKabsch.solve(&src, &src, &p, &[0.0; 3]),
+            kabsch(&src, &src, &p, &[0.0; 3]),
             Err(IcpError::DegenerateWeights { sum: 0.0 })
         );
         assert!(matches!(
-            WeightedKabsch.solve(&src, &src, &p, &[1.0, f64::NAN, 1.0]),
+            kabsch(&src, &src, &p, &[1.0, f64::NAN, 1.0]),
             Err(IcpError::InvalidWeight { pair: 1, .. })
         ));
         assert!(matches!(
-            WeightedKabsch.solve(&src, &src, &p, &[1.0]),
+            kabsch(&src, &src, &p, &[1.0]),
             Err(IcpError::LengthMismatch { .. })
         ));
     }

@@ -1,0 +1,139 @@
+//! Points bucketed into square cells of a uniform grid (a counting sort by cell), the layout
+//! shared by the grid matcher and the surface estimation.
+
+use nalgebra::Point2;
+
+/// The points of a set, sorted by the cell that holds them (row-major), with their indices.
+#[derive(Clone, Debug)]
+pub struct Cells {
+    /// The points in cell order.
+    pub points: Vec<Point2<f64>>,
+    /// The index in the input of each point of `points`.
+    pub ids: Vec<u32>,
+    /// `start[c]..start[c + 1]` are the points of cell `c` (row-major).
+    start: Vec<u32>,
+    x0: f64,
+    y0: f64,
+    /// Side of a cell, metres.
+    pub h: f64,
+    inv_h: f64,
+    /// Cells along x.
+    pub nx: usize,
+    /// Cells along y.
+    pub ny: usize,
+}
+
+/// Most cells along one side.
+const MAX_CELLS_PER_SIDE: usize = 1 << 15;
+
+impl Cells {
+    /// Buckets `points` (non-empty, finite, at most `u32::MAX`) into cells whose side is
+    /// `side(width, height)` of their bounding box, widened where the grid would have more than
+    /// `2^15` cells along a side.
+    pub fn new(points: &[Point2<f64>], side: impl FnOnce(f64, f64) -> f64) -> Self {
+        let (mut x0, mut y0, mut x1, mut y1) = (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        );
+        for p in points {
+            x0 = x0.min(p.x);
+            y0 = y0.min(p.y);
+            x1 = x1.max(p.x);
+            y1 = y1.max(p.y);
+        }
+        let (w, hgt) = (
+            (x1 - x0).max(f64::MIN_POSITIVE),
+            (y1 - y0).max(f64::MIN_POSITIVE),
+        );
+        let mut h = side(w, hgt);
+        if !(h.is_finite() && h > 0.0) {
+            h = (w.max(hgt) / points.len() as f64).max(1e-9);
+        }
+        let cells = |extent: f64| {
+            ((extent / h).floor() as usize)
+                .saturating_add(1)
+                .min(MAX_CELLS_PER_SIDE)
+        };
+        let (nx, ny) = (cells(w), cells(hgt));
+        let h = (w / nx as f64).max(hgt / ny as f64).max(h);
+        let inv_h = 1.0 / h;
+        let cell_of = |p: &Point2<f64>| -> usize {
+            let cx = (((p.x - x0) * inv_h) as usize).min(nx - 1);
+            let cy = (((p.y - y0) * inv_h) as usize).min(ny - 1);
+            cy * nx + cx
+        };
+        let mut start = vec![0u32; nx * ny + 1];
+        for p in points {
+            start[cell_of(p) + 1] += 1;
+        }
+        for c in 0..nx * ny {
+            start[c + 1] += start[c];
+        }
+        let mut fill = start.clone();
+        let n = points.len();
+        let (mut sorted, mut ids) = (vec![Point2::origin(); n], vec![0u32; n]);
+        for (i, p) in points.iter().enumerate() {
+            let slot = &mut fill[cell_of(p)];
+            let k = *slot as usize;
+            sorted[k] = *p;
+            ids[k] = i as u32; // the caller bounds the count to u32::MAX
+            *slot += 1;
+        }
+        Self {
+            points: sorted,
+            ids,
+            start,
+            x0,
+            y0,
+            h,
+            inv_h,
+            nx,
+            ny,
+        }
+    }
+
+    /// Cell coordinates of `q`, clamped into the grid.
+    #[inline]
+    pub fn cell_xy(&self, q: &Point2<f64>) -> (usize, usize) {
+        let fx = ((q.x - self.x0) * self.inv_h).max(0.0);
+        let fy = ((q.y - self.y0) * self.inv_h).max(0.0);
+        (
+            (fx as usize).min(self.nx - 1),
+            (fy as usize).min(self.ny - 1),
+        )
+    }
+
+    /// The positions in `points`/`ids` of the cells `cx0..=cx1` of row `cy`.
+    #[inline]
+    pub fn row(&self, (cx0, cx1): (usize, usize), cy: usize) -> std::ops::Range<usize> {
+        let row = cy * self.nx;
+        self.start[row + cx0] as usize..self.start[row + cx1 + 1] as usize
+    }
+
+    /// A lower bound on the distance from `q` to any point outside the cells
+    /// `[x_lo, x_hi] × [y_lo, y_hi]`: the distance to the nearest side of that block which the
+    /// grid extends past (infinite when the block covers the grid).
+    pub fn outside_bound(
+        &self,
+        q: &Point2<f64>,
+        (x_lo, x_hi): (usize, usize),
+        (y_lo, y_hi): (usize, usize),
+    ) -> f64 {
+        let mut bound = f64::INFINITY;
+        if x_lo > 0 {
+            bound = bound.min(q.x - (self.x0 + x_lo as f64 * self.h));
+        }
+        if x_hi + 1 < self.nx {
+            bound = bound.min(self.x0 + (x_hi + 1) as f64 * self.h - q.x);
+        }
+        if y_lo > 0 {
+            bound = bound.min(q.y - (self.y0 + y_lo as f64 * self.h));
+        }
+        if y_hi + 1 < self.ny {
+            bound = bound.min(self.y0 + (y_hi + 1) as f64 * self.h - q.y);
+        }
+        bound
+    }
+}

@@ -1,0 +1,131 @@
+//! Error metrics: what a pair's residual is, and so what eq. 14's minimisation minimises.
+//!
+//! Every metric here is one form of the cost `Σ w_i e_iᵀ Ω_i e_i` with `e_i = R p_i + T − q_i`
+//! (generalised ICP's observation, Segal et al. 2009): point-to-point (the paper's eq. 14,
+//! `Ω = I`), point-to-line (`Ω = n nᵀ`, the reference normal: Chen & Medioni 1991, Censi 2008)
+//! and plane-to-plane (`Ω = (C_q + R C_p Rᵀ)⁻¹`, both points' surface covariances and
+//! optionally their sensor covariances, eq. 8). A metric also gives each pair a residual in
+//! metres, which the robust kernel (on request) and the stop rule see, and says which pairs it
+//! cannot use (no surface estimate, or farther apart than its correspondence gate).
+
+use nalgebra::{Isometry2, Matrix3, Point2, Vector3};
+
+use crate::pairs::PairSet;
+use crate::registry::{Family, ParamError, StageSpec};
+
+mod plane_to_plane;
+mod point_to_line;
+mod point_to_point;
+
+pub use plane_to_plane::{PlaneToPlane, PlaneToPlaneParams, SurfaceCovariance};
+pub use point_to_line::PointToLine;
+pub use point_to_point::PointToPoint;
+
+/// Every registered metric, one line each.
+pub static METRICS: Family<dyn Metric> = Family {
+    name: "metric",
+    summary: "what a pair's residual is: the cost eq. 14 minimises",
+    kinds: &[
+        &point_to_point::KIND,
+        &point_to_line::KIND,
+        &plane_to_plane::KIND,
+    ],
+};
+
+/// The Gauss-Newton normal equations of the cost at the current estimate, for an increment
+/// `δ = (δx, δy, δθ)` applied on the left of it as a turn about `center`:
+/// `m ↦ R(δθ) (m − c) + c + (δx, δy)`. Turning about the points' centroid rather than the
+/// frame's origin keeps `H` well conditioned however far the points are from the sensor.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalEquations {
+    /// The centre `c` of the turn: the centroid of the moved source points.
+    pub center: Point2<f64>,
+    /// `H = Σ w Jᵀ Ω J`, with `J = ∂e/∂δ = [I, (−(m − c)_y, (m − c)_x)ᵀ]`.
+    pub hessian: Matrix3<f64>,
+    /// `g = Σ w Jᵀ Ω e`: the step is `δ = −H⁻¹ g`.
+    pub gradient: Vector3<f64>,
+    /// The cost `Σ w eᵀ Ω e`, m² (weighted).
+    pub cost: f64,
+    /// `Σ w` over the pairs used.
+    pub weight_sum: f64,
+}
+
+/// An error metric.
+pub trait Metric: Send + Sync {
+    /// What this stage is, as configuration data.
+    fn spec(&self) -> StageSpec {
+        StageSpec::unregistered::<Self>()
+    }
+
+    /// The minimiser a variant gets when it names none.
+    fn default_minimizer(&self) -> StageSpec {
+        StageSpec::kind("gauss_newton")
+    }
+
+    /// True when every pair's `Ω` is the identity (plain point-to-point), which the closed
+    /// form of eqs. 15–20 minimises.
+    fn isotropic(&self) -> bool {
+        false
+    }
+
+    /// True when the metric needs the surface estimates of the source scan too.
+    fn needs_source_surfaces(&self) -> bool {
+        false
+    }
+
+    /// The residual of every pair of `set`, metres, into `out` (cleared first); NaN for a pair
+    /// the metric cannot use. `pair_distance_m[i]` is pair `i`'s point distance.
+    fn residuals(&self, set: &PairSet<'_>, pair_distance_m: &[f64], out: &mut Vec<f64>);
+
+    /// The normal equations at the current estimate over the pairs with a positive weight
+    /// (`weights[i]` belongs to `set.pairs[i]`; a pair with a NaN residual has weight 0).
+    fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations;
+
+    /// The cost `Σ w eᵀ Ω e` after the increment `increment` (with each pair's `Ω` kept at
+    /// the current estimate), for the minimiser's step control.
+    fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64;
+}
+
+/// `Ok` when a correspondence gate is absent or a positive distance.
+fn check_gate(gate_m: Option<f64>) -> Result<(), ParamError> {
+    gate_m.map_or(Ok(()), |g| {
+        ParamError::check_positive("max_pair_distance_m", g)
+    })
+}
+
+/// True when a pair `distance_m` apart passes the gate.
+#[inline]
+fn within(gate_m: Option<f64>, distance_m: f64) -> bool {
+    gate_m.is_none_or(|g| distance_m <= g)
+}
+
+/// `∂e/∂δθ` for a moved point `m` turning about `c`: `(−(m − c)_y, (m − c)_x)`.
+#[inline]
+fn turn(m: &Point2<f64>, c: &Point2<f64>) -> (f64, f64) {
+    (c.y - m.y, m.x - c.x)
+}
+
+/// The centroid of the moved source points: the centre of the increment's turn.
+fn center(set: &PairSet<'_>) -> Point2<f64> {
+    let n = set.src_moved.len().max(1) as f64;
+    Point2::from(
+        set.src_moved
+            .iter()
+            .map(|m| m.coords)
+            .sum::<nalgebra::Vector2<f64>>()
+            / n,
+    )
+}
+
+impl NormalEquations {
+    /// The increment `m ↦ R(δθ) (m − c) + c + (δx, δy)` as an isometry.
+    pub fn increment(&self, delta: &Vector3<f64>) -> Isometry2<f64> {
+        let c = self.center.coords;
+        let turn = nalgebra::UnitComplex::new(delta.z);
+        let t = c - turn * c + nalgebra::Vector2::new(delta.x, delta.y);
+        Isometry2::from_parts(t.into(), turn)
+    }
+}
+
+#[cfg(test)]
+mod tests;

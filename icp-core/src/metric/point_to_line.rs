@@ -1,0 +1,97 @@
+//! Point-to-line: the distance from the moved source point to the reference surface's tangent
+//! line (Chen & Medioni 1991, point-to-plane; Censi 2008, PLICP, in 2D).
+
+use nalgebra::{Isometry2, Matrix3, Vector3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::{center, check_gate, turn, within, Metric, NormalEquations};
+use crate::pairs::PairSet;
+use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
+
+/// `r = nᵀ (R p + T − q)`, `Ω = n nᵀ`, with `n` the reference surface normal at `q` (see
+/// [`crate::surface`]). Pairs whose reference point has no usable normal are not used (and
+/// counted). The residual is `|r|`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct PointToLine {
+    /// Pairs farther apart than this are not used, metres; null: no gate.
+    pub max_pair_distance_m: Option<f64>,
+}
+
+impl Params for PointToLine {
+    fn validate(&self) -> Result<(), ParamError> {
+        check_gate(self.max_pair_distance_m)
+    }
+}
+
+/// The registered kind.
+pub const KIND: Kind<PointToLine, dyn Metric> = Kind::new(
+    "point_to_line",
+    "the distance along the reference surface normal (Chen & Medioni 1991; Censi 2008)",
+    |p, _| Box::new(p),
+);
+
+impl Metric for PointToLine {
+    fn spec(&self) -> StageSpec {
+        StageSpec::of(KIND.name(), self)
+    }
+
+    fn residuals(&self, set: &PairSet<'_>, pair_distance_m: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend(set.pairs.iter().zip(pair_distance_m).map(|(c, &d)| {
+            match set.dst_surfaces[c.dst] {
+                Some(s) if within(self.max_pair_distance_m, d) => s
+                    .normal
+                    .dot(&(set.src_moved[c.src] - set.dst_points[c.dst]))
+                    .abs(),
+                _ => f64::NAN,
+            }
+        }));
+    }
+
+    fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations {
+        let c0 = center(set);
+        let (mut h, mut g, mut cost, mut weight_sum) =
+            (Matrix3::zeros(), Vector3::zeros(), 0.0, 0.0);
+        for (c, &w) in set.pairs.iter().zip(weights) {
+            let Some(s) = set.dst_surfaces[c.dst] else {
+                continue;
+            };
+            if w <= 0.0 {
+                continue;
+            }
+            let (n, m) = (s.normal, set.src_moved[c.src]);
+            let r = n.dot(&(m - set.dst_points[c.dst]));
+            let (tx, ty) = turn(&m, &c0);
+            let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
+            h += j * j.transpose() * w;
+            g += j * (w * r);
+            cost += w * r * r;
+            weight_sum += w;
+        }
+        NormalEquations {
+            center: c0,
+            hessian: h,
+            gradient: g,
+            cost,
+            weight_sum,
+        }
+    }
+
+    fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64 {
+        let mut cost = 0.0;
+        for (c, &w) in set.pairs.iter().zip(weights) {
+            let Some(s) = set.dst_surfaces[c.dst] else {
+                continue;
+            };
+            if w > 0.0 {
+                let r = s
+                    .normal
+                    .dot(&(increment * set.src_moved[c.src] - set.dst_points[c.dst]));
+                cost += w * r * r;
+            }
+        }
+        cost
+    }
+}
