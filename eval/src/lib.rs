@@ -53,6 +53,9 @@ pub enum EvalError {
     /// A registration input was refused.
     #[error(transparent)]
     Icp(#[from] IcpError),
+    /// Two variants of a run share a name (their files would collide).
+    #[error("two variants are named {0}")]
+    DuplicateName(String),
     /// The dataset has no pair of consecutive scans at all.
     #[error("{dataset} has {scans} scan(s): no pair of consecutive scans to register")]
     NothingToRegister { dataset: String, scans: usize },
@@ -70,6 +73,12 @@ pub fn evaluate(
             dataset: ds.provenance.name.clone(),
             scans: ds.scans.len(),
         });
+    }
+    for (i, v) in setup.variants.iter().enumerate() {
+        icp_core::variants::check_name(v.name())?;
+        if setup.variants[..i].iter().any(|o| o.name() == v.name()) {
+            return Err(EvalError::DuplicateName(v.name().to_owned()));
+        }
     }
     progress.set_length((setup.variants.len() * pairs.len()) as u64);
     let runs = runner::run_all(ds, &pairs, &setup.variants, progress);

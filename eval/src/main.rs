@@ -434,12 +434,9 @@ fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>
     if specs.is_empty() {
         bail!("no variant to run");
     }
-    for (i, s) in specs.iter().enumerate() {
+    for s in &specs {
         s.validate()
             .with_context(|| format!("variant {}", s.name))?;
-        if specs[..i].iter().any(|o| o.name == s.name) {
-            bail!("two variants are named {}", s.name);
-        }
     }
     Ok(specs)
 }

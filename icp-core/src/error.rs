@@ -139,4 +139,12 @@ pub enum ConfigError {
     /// Two stages that cannot work together.
     #[error("{0}")]
     Incompatible(String),
+    /// A variant name that cannot name the files of a run.
+    #[error("variant name {name:?}: {reason}")]
+    Name {
+        /// The name given.
+        name: String,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
 }

@@ -3,7 +3,8 @@
 //! shared, as plain data, by every registration that uses the scan and by the quality checks.
 //!
 //! For each return, the up to `max_neighbours` nearest points of the same scan within
-//! `radius_m` (the return itself included) give a mean `m` and a scatter
+//! `radius_m` (the return itself included) give a mean `m` (kept: the fitted line passes
+//! through it) and a scatter
 //! `S = Σ (p − m)(p − m)ᵀ / k` with eigenvalues `λ_t ≥ λ_n` and eigenvectors `t` (along the
 //! surface) and `n` (the normal). The estimate is usable when there are at least
 //! `min_neighbours` of them and the neighbourhood is line-like, `λ_n ≤ max_thickness_ratio ·
@@ -94,6 +95,9 @@ pub struct SurfacePoint {
     pub normal: Vector2<f64>,
     /// The regularised neighbourhood covariance, m² (see the module doc).
     pub covariance: Matrix2<f64>,
+    /// The neighbourhood's mean, in the scan frame: a point of the fitted line, less noisy
+    /// along the normal than the return itself.
+    pub mean: Point2<f64>,
 }
 
 /// The surface estimates of every return of one scan, made with one set of parameters.
@@ -210,5 +214,6 @@ fn estimate_at(
     Some(SurfacePoint {
         normal,
         covariance: t * t.transpose() * lambda_t + normal * normal.transpose() * across,
+        mean: Point2::from(mean),
     })
 }

@@ -69,6 +69,30 @@ pub struct VariantSpec {
     pub termination: Termination,
 }
 
+/// `Ok` when `name` can name a variant's files (`trajectory_<name>.tum`): letters, digits and
+/// `_ - + .`, not empty, not starting with a dot.
+pub fn check_name(name: &str) -> Result<(), ConfigError> {
+    let bad = |reason| {
+        Err(ConfigError::Name {
+            name: name.to_owned(),
+            reason,
+        })
+    };
+    if name.is_empty() {
+        return bad("must not be empty");
+    }
+    if name.starts_with('.') {
+        return bad("must not start with a dot");
+    }
+    if !name
+        .chars()
+        .all(|c| c.is_ascii_alphanumeric() || "_-+.".contains(c))
+    {
+        return bad("only letters, digits and _ - + . (it names the run's files)");
+    }
+    Ok(())
+}
+
 fn default_selection() -> StageSpec {
     StageSpec::kind("equal_count")
 }
@@ -85,6 +109,7 @@ impl VariantSpec {
     /// Builds the chain this spec describes, checking every stage's kind and parameters, the
     /// sections, and that the minimiser can minimise the metric's cost.
     pub fn build(&self) -> Result<Icp, ConfigError> {
+        check_name(&self.name)?;
         let section = |section: &'static str| {
             move |source: ParamError| ConfigError::Section { section, source }
         };

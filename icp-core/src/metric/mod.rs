@@ -7,11 +7,26 @@
 //! optionally their sensor covariances, eq. 8). A metric also gives each pair a residual in
 //! metres, which the robust kernel (on request) and the stop rule see, and says which pairs it
 //! cannot use (no surface estimate, or farther apart than its correspondence gate).
+//!
+//! The point-to-line and plane-to-plane metrics take both ends of a pair at the means of their
+//! returns' neighbourhoods by default ([`Anchor::NeighbourhoodMeans`]): points of the fitted
+//! surfaces, not the returns. The matched reference return is the nearest of noisy returns, so
+//! its noise along the normal is biased towards the source point (the nearest is the one whose
+//! noise brought it closer), which pulls every step towards zero motion; a neighbourhood mean
+//! carries a fraction of that noise and none of the selection. Taking the source end the same
+//! way keeps the metric symmetric, so two scans sampled alike (noise-free, or identical)
+//! register exactly, curved surfaces included. Measured (translation RMSE over the Cramér–Rao
+//! bound, synthetic `paper` scenario): HD_GICP 1.34 with the returns, 1.13 with the reference
+//! end alone at its mean, 1.07 with both; PL_ICP 1.53, 1.38, 1.32. On the marina data (ΔCOG
+//! median |e|, plausible pairs) GICP 0.070° → 0.068°, HD_GICP 0.067° → 0.065°.
 
 use nalgebra::{Isometry2, Matrix3, Point2, Vector3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 use crate::pairs::PairSet;
 use crate::registry::{Family, ParamError, StageSpec};
+use crate::surface::SurfacePoint;
 
 mod plane_to_plane;
 mod point_to_line;
@@ -84,6 +99,69 @@ pub trait Metric: Send + Sync {
     /// The cost `Σ w eᵀ Ω e` after the increment `increment` (with each pair's `Ω` kept at
     /// the current estimate), for the minimiser's step control.
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64;
+}
+
+/// Where the surface metrics take the two ends of a pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Anchor {
+    /// Each end at the mean of its return's neighbourhood (a point of the fitted surface); a
+    /// pair whose source return has no surface estimate is not used.
+    #[default]
+    NeighbourhoodMeans,
+    /// The returns themselves (the textbook form; biased towards zero motion by the
+    /// nearest-neighbour selection of noisy returns).
+    Returns,
+}
+
+/// The two ends of a pair as a surface metric takes them.
+#[derive(Clone, Copy, Debug)]
+struct Ends {
+    /// The source end, moved into the reference frame.
+    source: Point2<f64>,
+    /// The reference end.
+    reference: Point2<f64>,
+    /// The reference surface at the matched return.
+    surface: SurfacePoint,
+}
+
+impl Ends {
+    /// The distance from the source end to the reference line, signed along its normal.
+    #[inline]
+    fn normal_residual(&self) -> f64 {
+        self.surface.normal.dot(&(self.source - self.reference))
+    }
+}
+
+impl Anchor {
+    /// The ends of pair `i` of `set`. `None` when the pair has no reference surface estimate,
+    /// or (with [`Anchor::NeighbourhoodMeans`]) no source one: both ends are taken alike or not
+    /// at all, so that two scans sampled alike register exactly.
+    #[inline]
+    fn ends(self, set: &PairSet<'_>, i: usize) -> Option<Ends> {
+        let c = set.pairs[i];
+        let surface = set.dst_surfaces[c.dst]?;
+        let (source, reference) = match self {
+            Anchor::NeighbourhoodMeans => {
+                let sp = set.src_surfaces.get(c.src).copied().flatten()?;
+                // `R m + T = (R p + T) + R (m − p)`: the mean moved with its return.
+                let moved_mean =
+                    set.src_moved[c.src] + set.rotation_ref_src * (sp.mean - set.src[c.src].point);
+                (moved_mean, surface.mean)
+            }
+            Anchor::Returns => (set.src_moved[c.src], set.dst_points[c.dst]),
+        };
+        Some(Ends {
+            source,
+            reference,
+            surface,
+        })
+    }
+
+    /// True when the source scan's surface estimates are needed.
+    fn needs_source_surfaces(self) -> bool {
+        self == Anchor::NeighbourhoodMeans
+    }
 }
 
 /// `Ok` when a correspondence gate is absent or a positive distance.

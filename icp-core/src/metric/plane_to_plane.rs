@@ -5,7 +5,7 @@ use nalgebra::{Isometry2, Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, within, Metric, NormalEquations};
+use super::{center, check_gate, turn, within, Anchor, Ends, Metric, NormalEquations};
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 use crate::SensorModel;
@@ -27,6 +27,8 @@ pub enum SurfaceCovariance {
 pub struct PlaneToPlaneParams {
     /// The covariance of each point: surface, or surface_and_sensor.
     pub covariance: SurfaceCovariance,
+    /// Where the ends of a pair are taken: neighbourhood_means or returns.
+    pub anchor: Anchor,
     /// Pairs farther apart than this are not used, metres; null: no gate.
     pub max_pair_distance_m: Option<f64>,
 }
@@ -37,7 +39,8 @@ impl Params for PlaneToPlaneParams {
     }
 }
 
-/// `e = R p + T − q` weighed by `Ω = (C_q + R C_p Rᵀ)⁻¹`, each `C` the point's surface
+/// `e = R p + T − q` weighed by `Ω = (C_q + R C_p Rᵀ)⁻¹`, `p` and `q` the pair's ends (by
+/// default the means of the two returns' neighbourhoods: see [`Anchor`]), each `C` the point's surface
 /// covariance (in its own scan's frame; see [`crate::surface`]), plus its sensor covariance
 /// (eq. 8) with [`SurfaceCovariance::SurfaceAndSensor`]. `Ω` is taken at the current rotation
 /// and held during a step. Pairs where either point has no usable surface estimate are not
@@ -64,19 +67,21 @@ pub const KIND: Kind<PlaneToPlaneParams, dyn Metric> = Kind::new(
 );
 
 impl PlaneToPlane {
-    /// `Ω` of pair `i`, when both points have a surface estimate and it is invertible.
+    /// The ends of pair `i` and its `Ω`, when both returns have a surface estimate and `Ω`
+    /// exists.
     #[inline]
-    fn information(&self, set: &PairSet<'_>, i: usize) -> Option<Matrix2<f64>> {
+    fn terms(&self, set: &PairSet<'_>, i: usize) -> Option<(Ends, Matrix2<f64>)> {
         let c = set.pairs[i];
-        let (sp, sq) = (set.src_surfaces[c.src]?, set.dst_surfaces[c.dst]?);
+        let sp = set.src_surfaces[c.src]?;
+        let ends = self.params.anchor.ends(set, i)?;
         let r = set.rotation_ref_src.to_rotation_matrix().into_inner();
-        let (mut cp, mut cq) = (sp.covariance, sq.covariance);
+        let (mut cp, mut cq) = (sp.covariance, ends.surface.covariance);
         if self.params.covariance == SurfaceCovariance::SurfaceAndSensor {
-            let (p, q) = (&set.src[c.src], &set.dst[c.dst]);
-            cp += self.sensor.covariance(p.range_m, p.bearing_rad);
-            cq += self.sensor.covariance(q.range_m, q.bearing_rad);
+            let (rp, rq) = (&set.src[c.src], &set.dst[c.dst]);
+            cp += self.sensor.covariance(rp.range_m, rp.bearing_rad);
+            cq += self.sensor.covariance(rq.range_m, rq.bearing_rad);
         }
-        (cq + r * cp * r.transpose()).try_inverse()
+        Some((ends, (cq + r * cp * r.transpose()).try_inverse()?))
     }
 }
 
@@ -91,12 +96,12 @@ impl Metric for PlaneToPlane {
 
     fn residuals(&self, set: &PairSet<'_>, pair_distance_m: &[f64], out: &mut Vec<f64>) {
         out.clear();
-        out.extend(set.pairs.iter().zip(pair_distance_m).map(|(c, &d)| {
-            match (set.src_surfaces[c.src], set.dst_surfaces[c.dst]) {
-                (Some(_), Some(s)) if within(self.params.max_pair_distance_m, d) => s
-                    .normal
-                    .dot(&(set.src_moved[c.src] - set.dst_points[c.dst]))
-                    .abs(),
+        out.extend(pair_distance_m.iter().enumerate().map(|(i, &d)| {
+            let c = set.pairs[i];
+            match (set.src_surfaces[c.src], self.params.anchor.ends(set, i)) {
+                (Some(_), Some(ends)) if within(self.params.max_pair_distance_m, d) => {
+                    ends.normal_residual().abs()
+                }
                 _ => f64::NAN,
             }
         }));
@@ -106,16 +111,15 @@ impl Metric for PlaneToPlane {
         let c0 = center(set);
         let (mut h, mut g, mut cost, mut weight_sum) =
             (Matrix3::zeros(), Vector3::zeros(), 0.0, 0.0);
-        for (i, (c, &w)) in set.pairs.iter().zip(weights).enumerate() {
+        for (i, &w) in weights.iter().enumerate() {
             if w <= 0.0 {
                 continue;
             }
-            let Some(omega) = self.information(set, i) else {
+            let Some((ends, omega)) = self.terms(set, i) else {
                 continue;
             };
-            let m = set.src_moved[c.src];
-            let e: Vector2<f64> = m - set.dst_points[c.dst];
-            let (tx, ty) = turn(&m, &c0);
+            let e: Vector2<f64> = ends.source - ends.reference;
+            let (tx, ty) = turn(&ends.source, &c0);
             let j = Matrix2x3::new(1.0, 0.0, tx, 0.0, 1.0, ty);
             let omega_e = omega * e;
             h += j.transpose() * omega * j * w;
@@ -134,12 +138,12 @@ impl Metric for PlaneToPlane {
 
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64 {
         let mut cost = 0.0;
-        for (i, (c, &w)) in set.pairs.iter().zip(weights).enumerate() {
+        for (i, &w) in weights.iter().enumerate() {
             if w <= 0.0 {
                 continue;
             }
-            if let Some(omega) = self.information(set, i) {
-                let e = increment * set.src_moved[c.src] - set.dst_points[c.dst];
+            if let Some((ends, omega)) = self.terms(set, i) {
+                let e = increment * ends.source - ends.reference;
                 cost += w * e.dot(&(omega * e));
             }
         }

@@ -5,18 +5,21 @@ use nalgebra::{Isometry2, Matrix3, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, within, Metric, NormalEquations};
+use super::{center, check_gate, turn, within, Anchor, Metric, NormalEquations};
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 
-/// `r = nᵀ (R p + T − q)`, `Ω = n nᵀ`, with `n` the reference surface normal at `q` (see
-/// [`crate::surface`]). Pairs whose reference point has no usable normal are not used (and
-/// counted). The residual is `|r|`.
+/// `r = nᵀ (R p + T − q)`, `Ω = n nᵀ`, with `n` the reference surface normal at the matched
+/// return, and `p`, `q` the pair's ends: by default the means of the two returns'
+/// neighbourhoods (see [`Anchor`] and [`crate::surface`]). Pairs whose reference return has no
+/// usable normal are not used (and counted). The residual is `|r|`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(default, deny_unknown_fields)]
 pub struct PointToLine {
     /// Pairs farther apart than this are not used, metres; null: no gate.
     pub max_pair_distance_m: Option<f64>,
+    /// Where the ends of a pair are taken: neighbourhood_means or returns.
+    pub anchor: Anchor,
 }
 
 impl Params for PointToLine {
@@ -37,33 +40,33 @@ impl Metric for PointToLine {
         StageSpec::of(KIND.name(), self)
     }
 
+    fn needs_source_surfaces(&self) -> bool {
+        self.anchor.needs_source_surfaces()
+    }
+
     fn residuals(&self, set: &PairSet<'_>, pair_distance_m: &[f64], out: &mut Vec<f64>) {
         out.clear();
-        out.extend(set.pairs.iter().zip(pair_distance_m).map(|(c, &d)| {
-            match set.dst_surfaces[c.dst] {
-                Some(s) if within(self.max_pair_distance_m, d) => s
-                    .normal
-                    .dot(&(set.src_moved[c.src] - set.dst_points[c.dst]))
-                    .abs(),
+        out.extend(pair_distance_m.iter().enumerate().map(
+            |(i, &d)| match self.anchor.ends(set, i) {
+                Some(ends) if within(self.max_pair_distance_m, d) => ends.normal_residual().abs(),
                 _ => f64::NAN,
-            }
-        }));
+            },
+        ));
     }
 
     fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations {
         let c0 = center(set);
         let (mut h, mut g, mut cost, mut weight_sum) =
             (Matrix3::zeros(), Vector3::zeros(), 0.0, 0.0);
-        for (c, &w) in set.pairs.iter().zip(weights) {
-            let Some(s) = set.dst_surfaces[c.dst] else {
-                continue;
-            };
+        for (i, &w) in weights.iter().enumerate() {
             if w <= 0.0 {
                 continue;
             }
-            let (n, m) = (s.normal, set.src_moved[c.src]);
-            let r = n.dot(&(m - set.dst_points[c.dst]));
-            let (tx, ty) = turn(&m, &c0);
+            let Some(ends) = self.anchor.ends(set, i) else {
+                continue;
+            };
+            let (n, r) = (ends.surface.normal, ends.normal_residual());
+            let (tx, ty) = turn(&ends.source, &c0);
             let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
             h += j * j.transpose() * w;
             g += j * (w * r);
@@ -81,14 +84,15 @@ impl Metric for PointToLine {
 
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64 {
         let mut cost = 0.0;
-        for (c, &w) in set.pairs.iter().zip(weights) {
-            let Some(s) = set.dst_surfaces[c.dst] else {
+        for (i, &w) in weights.iter().enumerate() {
+            if w <= 0.0 {
                 continue;
-            };
-            if w > 0.0 {
-                let r = s
+            }
+            if let Some(ends) = self.anchor.ends(set, i) {
+                let r = ends
+                    .surface
                     .normal
-                    .dot(&(increment * set.src_moved[c.src] - set.dst_points[c.dst]));
+                    .dot(&(increment * ends.source - ends.reference));
                 cost += w * r * r;
             }
         }

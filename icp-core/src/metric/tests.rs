@@ -30,12 +30,14 @@ fn ret(p: Point2<f64>) -> Return {
     }
 }
 
-fn surface(angle: f64, along_m2: f64) -> Option<SurfacePoint> {
+/// A surface along `angle` whose neighbourhood mean is `mean`.
+fn surface(angle: f64, along_m2: f64, mean: Point2<f64>) -> Option<SurfacePoint> {
     let t = Vector2::new(angle.cos(), angle.sin());
     let n = Vector2::new(-t.y, t.x);
     Some(SurfacePoint {
         normal: n,
         covariance: t * t.transpose() * along_m2 + n * n.transpose() * (1e-3 * along_m2),
+        mean,
     })
 }
 
@@ -67,11 +69,21 @@ fn fixture() -> Fixture {
             })
             .collect(),
         dst_points: dst.iter().map(|r| r.point).collect(),
-        src_surfaces: (0..n).map(|i| surface(0.2 * i as f64, 0.1)).collect(),
+        src_surfaces: (0..n)
+            .map(|i| {
+                surface(
+                    0.2 * i as f64,
+                    0.1,
+                    src[i].point + Vector2::new(-0.01, 0.015),
+                )
+            })
+            .collect(),
+        // Means a little off the returns, as a noisy return is off its neighbourhood's line.
         dst_surfaces: (0..n)
             .map(|i| {
+                let mean = dst[i].point + Vector2::new(0.01, -0.02 * (i as f64).cos());
                 (i != 3)
-                    .then(|| surface(1.0 - 0.3 * i as f64, 0.2))
+                    .then(|| surface(1.0 - 0.3 * i as f64, 0.2, mean))
                     .flatten()
             })
             .collect(),
@@ -187,19 +199,37 @@ fn residuals_by_hand_and_unusable_pairs() {
     let mut out = Vec::new();
     PointToPoint::default().residuals(&set, &dists, &mut out);
     assert_eq!(out, dists);
-    PointToLine::default().residuals(&set, &dists, &mut out);
-    for (i, c) in set.pairs.iter().enumerate() {
-        match set.dst_surfaces[c.dst] {
-            None => assert!(out[i].is_nan(), "pair {i} has no reference normal"),
-            Some(s) => {
-                let e = set.src_moved[c.src] - set.dst_points[c.dst];
-                assert_eq!(out[i], s.normal.dot(&e).abs());
-                assert!(out[i] <= dists[i] * (1.0 + 1e-12));
+    for (anchor, returns) in [(Anchor::NeighbourhoodMeans, false), (Anchor::Returns, true)] {
+        PointToLine {
+            anchor,
+            ..PointToLine::default()
+        }
+        .residuals(&set, &dists, &mut out);
+        for (i, c) in set.pairs.iter().enumerate() {
+            match set.dst_surfaces[c.dst] {
+                None => assert!(out[i].is_nan(), "pair {i} has no reference normal"),
+                Some(s) => {
+                    let (p, q) = if returns {
+                        (set.src_moved[c.src], set.dst_points[c.dst])
+                    } else {
+                        // The source mean moved like its return.
+                        let sp = set.src_surfaces[c.src].unwrap();
+                        let p = set.src_moved[c.src]
+                            + set.rotation_ref_src * (sp.mean - set.src[c.src].point);
+                        (p, s.mean)
+                    };
+                    let e = p - q;
+                    assert_eq!(out[i], s.normal.dot(&e).abs());
+                    if returns {
+                        assert!(out[i] <= dists[i] * (1.0 + 1e-12));
+                    }
+                }
             }
         }
     }
     let gated = PointToLine {
         max_pair_distance_m: Some(0.05),
+        ..PointToLine::default()
     };
     gated.residuals(&set, &dists, &mut out);
     for (i, &d) in dists.iter().enumerate() {
@@ -212,7 +242,7 @@ fn plane_to_plane_information_is_the_inverse_combined_covariance() {
     // One pair, both surfaces along x: Ω = (C_q + R C_p Rᵀ)⁻¹ by hand at R = I.
     let p = ret(Point2::new(5.0, 1.0));
     let q = ret(Point2::new(5.0, 1.1));
-    let s = surface(0.0, 0.1);
+    let (sp, sq) = (surface(0.0, 0.1, p.point), surface(0.0, 0.1, q.point));
     let pairs = [Correspondence {
         src: 0,
         dst: 0,
@@ -224,8 +254,8 @@ fn plane_to_plane_information_is_the_inverse_combined_covariance() {
         dst: &[q],
         src_moved: &[p.point],
         dst_points: &[q.point],
-        src_surfaces: &[s],
-        dst_surfaces: &[s],
+        src_surfaces: &[sp],
+        dst_surfaces: &[sq],
         rotation_ref_src: UnitComplex::identity(),
     };
     let metric = PlaneToPlane {
