@@ -310,3 +310,71 @@ fn generated_returns_carry_true_normals_facing_the_sensor() {
         );
     }
 }
+
+/// On noise-free scans at the default 0.48° spacing, the surface metrics recover a step to a
+/// fraction of a millimetre (median), while point-to-point is limited by the sampling:
+/// consecutive scans sample the walls at different places, and nearest-neighbour pairs are not
+/// the same points. Not every step: GICP recovers all but one of these 119 steps to under
+/// 1 mm (the other at 4.9 mm: part of the scene has no counterpart in the other scan, and the
+/// Huber factor only softens those pairs); the other surface variants' worst steps reach
+/// 3–4.5 mm, at corners whose neighbourhoods pass the line-likeness threshold chosen for noisy
+/// scans.
+#[test]
+fn surface_metrics_recover_noise_free_steps_far_below_point_to_point() {
+    let scenario = Scenario {
+        n_scans: 120,
+        scanner: ScannerConfig {
+            noise: false,
+            gross_error_fraction: 0.0,
+            ..ScannerConfig::default()
+        },
+        ..Scenario::paper()
+    };
+    let ds = generate(&scenario).unwrap();
+    let r = ds.reference.as_ref().unwrap();
+    let errors = |name: &str| -> Vec<f64> {
+        let reg = builtin(name).unwrap().build().unwrap();
+        let mut e: Vec<f64> = ds
+            .consecutive_pairs()
+            .0
+            .iter()
+            .map(|pair| {
+                let out = reg
+                    .register(
+                        &ds.scans[pair.source],
+                        &ds.scans[pair.reference],
+                        Isometry2::identity(),
+                    )
+                    .unwrap();
+                let truth = (r[pair.source].scan_pose().unwrap().inverse()
+                    * r[pair.reference].scan_pose().unwrap())
+                .inverse();
+                (out.t_ref_src.translation.vector - truth.translation.vector).norm()
+            })
+            .collect();
+        e.sort_by(f64::total_cmp);
+        e
+    };
+    let median = |e: &[f64]| e[e.len() / 2];
+    let p2p = errors("HD_ICP");
+    assert!(median(&p2p) > 5e-3, "HD_ICP median {} m", median(&p2p));
+    for name in ["PL_ICP", "HD_PL_ICP", "GICP", "HD_GICP"] {
+        let e = errors(name);
+        eprintln!(
+            "{name}: median {:.2} mm, max {:.2} mm (HD_ICP: median {:.1} mm)",
+            1e3 * median(&e),
+            1e3 * e[e.len() - 1],
+            1e3 * median(&p2p)
+        );
+        assert!(median(&e) < 1e-3, "{name}: median {} m", median(&e));
+        assert!(median(&e) < median(&p2p) / 5.0, "{name}");
+    }
+    // Not every step: see the doc comment for the one that is not.
+    let gicp = errors("GICP");
+    let under = gicp.iter().filter(|&&e| e < 1e-3).count();
+    assert!(
+        under + 1 >= gicp.len(),
+        "GICP: {under} of {} steps under 1 mm",
+        gicp.len()
+    );
+}

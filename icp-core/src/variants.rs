@@ -396,6 +396,45 @@ mod tests {
         assert!(serde_json::from_str::<VariantSpec>(typo).is_err());
     }
 
+    /// Every parameter with a domain is checked, by the kind or section that owns it, with a
+    /// message naming it.
+    #[test]
+    fn each_kinds_parameters_are_validated() {
+        let cases: [(&str, &str, Value, &str); 13] = [
+            ("HD_GICP", "metric.max_pair_distance_m", 0.0.into(), "metric \"plane_to_plane\": max_pair_distance_m = 0: must be finite and positive"),
+            ("PL_ICP", "metric.max_pair_distance_m", (-1.0).into(), "metric \"point_to_line\": max_pair_distance_m = -1: must be finite and positive"),
+            ("HD_ICP", "metric.max_pair_distance_m", 0.0.into(), "metric \"point_to_point\": max_pair_distance_m = 0: must be finite and positive"),
+            ("HD_PL_ICP", "weighting.power", 0.0.into(), "weighting \"normal_directional\": power = 0: must be finite and positive"),
+            ("IR_ICP", "weighting.r0_m", (-2.0).into(), "weighting \"inverse_range\": r0_m = -2: must be finite and positive"),
+            ("GICP", "minimizer.lm_lambda_start", 0.0.into(), "minimizer \"gauss_newton\": lm_lambda_start = 0: must be finite and positive"),
+            ("GICP", "robust.c", 0.0.into(), "robust \"median_scaled\": c = 0: must be finite and positive"),
+            ("GICP", "surfaces.min_neighbours", 2.into(), "surfaces.min_neighbours = 2: at least 3 points are needed for a line fit with a residual"),
+            ("GICP", "surfaces.max_neighbours", 4.into(), "surfaces.max_neighbours = 4: must be at least min_neighbours"),
+            ("GICP", "surfaces.radius_m", 0.0.into(), "surfaces.radius_m = 0: must be finite and positive"),
+            ("GICP", "surfaces.max_thickness_ratio", 1.5.into(), "surfaces.max_thickness_ratio = 1.5: must be in (0, 1]"),
+            ("GICP", "surfaces.min_variance_ratio", 0.0.into(), "surfaces.min_variance_ratio = 0: must be in (0, 1]"),
+            ("GICP", "termination.update_translation_eps_m", (-1.0).into(), "termination.update_translation_eps_m = -1: must be finite and non-negative"),
+        ];
+        for (variant, path, value, message) in cases {
+            let err = builtin(variant)
+                .unwrap()
+                .with_param(path, value)
+                .expect_err(path)
+                .to_string();
+            assert_eq!(err, message, "{variant} {path}");
+        }
+        // A value of the wrong type names the parameter too.
+        let err = builtin("GICP")
+            .unwrap()
+            .with_param("metric.covariance", "sensor".into())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("sensor") && err.contains("surface_and_sensor"),
+            "{err}"
+        );
+    }
+
     #[test]
     fn parameters_are_set_by_path() {
         let hd = builtin("HD_ICP").unwrap();
