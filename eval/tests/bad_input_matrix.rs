@@ -551,3 +551,63 @@ fn unwritable_output_directory() {
         )
     );
 }
+
+// ---- Variant configurations -----------------------------------------------------------------
+
+/// The error of building the variant a JSON configuration describes.
+fn config_error(json: &str) -> String {
+    match serde_json::from_str::<icp_core::variants::VariantSpec>(json) {
+        Ok(spec) => error_of(spec.build().map(|_| ())),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn config_unknown_stage_kind() {
+    assert_eq!(
+        config_error(r#"{"name": "X", "metric": "point_to_plane", "weighting": "uniform", "robust": "none"}"#),
+        "unknown metric kind \"point_to_plane\": expected one of point_to_point, point_to_line, plane_to_plane"
+    );
+}
+
+#[test]
+fn config_misspelt_parameter() {
+    assert!(config_error(
+        r#"{"name": "X", "metric": {"kind": "point_to_line", "max_pair_distance": 1}, "weighting": "uniform", "robust": "none"}"#
+    )
+    .starts_with("metric \"point_to_line\": unknown field `max_pair_distance`, expected"));
+}
+
+#[test]
+fn config_parameter_out_of_range() {
+    assert_eq!(
+        config_error(
+            r#"{"name": "X", "weighting": {"kind": "normal_directional", "power": -1}, "robust": "none"}"#
+        ),
+        "weighting \"normal_directional\": power = -1: must be finite and positive"
+    );
+}
+
+#[test]
+fn config_minimiser_that_cannot_minimise_the_metric() {
+    assert_eq!(
+        config_error(r#"{"name": "X", "metric": "plane_to_plane", "minimizer": "weighted_kabsch", "weighting": "uniform", "robust": "none"}"#),
+        "minimizer weighted_kabsch solves the point-to-point cost only; metric plane_to_plane needs gauss_newton"
+    );
+}
+
+#[test]
+fn config_stage_without_a_kind() {
+    assert!(
+        config_error(r#"{"name": "X", "weighting": {"power": 1}, "robust": "none"}"#)
+            .starts_with("a stage needs a \"kind\"")
+    );
+}
+
+#[test]
+fn config_variant_name_with_a_path_separator() {
+    assert_eq!(
+        config_error(r#"{"name": "PL/ICP", "weighting": "uniform", "robust": "none"}"#),
+        "variant name \"PL/ICP\": only letters, digits and _ - + . (it names the run's files)"
+    );
+}

@@ -292,11 +292,14 @@ pub fn param_docs<P: Serialize + Default + JsonSchema>() -> Vec<ParamDoc> {
             name: name.clone(),
             type_name: type_name(root, prop),
             default: defaults.get(name).cloned().unwrap_or(Value::Null),
+            // One line: a doc comment's line breaks are layout, not content.
             description: prop
                 .get("description")
                 .and_then(Value::as_str)
                 .unwrap_or_default()
-                .to_owned(),
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" "),
         })
         .collect()
 }
