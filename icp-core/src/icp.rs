@@ -260,7 +260,7 @@ impl Registrar for Icp {
                 dst_points: dst_pts,
                 src_surfaces,
                 dst_surfaces,
-                rotation_ref_src: t_ref_src.rotation,
+                t_ref_src,
             };
             dists.clear();
             dists.extend(set.pairs.iter().map(|p| p.dist_sq.sqrt()));

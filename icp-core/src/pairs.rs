@@ -1,6 +1,6 @@
 //! The matched pairs of one iteration, as every stage after matching sees them.
 
-use nalgebra::{Point2, UnitComplex, Vector2};
+use nalgebra::{Isometry2, Point2, Vector2};
 
 use crate::matching::Correspondence;
 use crate::scan::Return;
@@ -24,9 +24,9 @@ pub struct PairSet<'a> {
     pub src_surfaces: &'a [Option<SurfacePoint>],
     /// The surface at each reference return, in scan k+1's frame.
     pub dst_surfaces: &'a [Option<SurfacePoint>],
-    /// Rotation of the current estimate `t_ref_src`: a direction `β` in scan k+1's frame is
-    /// `β − θ` in scan k's frame.
-    pub rotation_ref_src: UnitComplex<f64>,
+    /// The current estimate: `src_moved[i]` is `t_ref_src * src[i].point`; a direction `β`
+    /// in scan k+1's frame is `β − θ` in scan k's frame.
+    pub t_ref_src: Isometry2<f64>,
 }
 
 impl PairSet<'_> {

@@ -1,6 +1,6 @@
 //! The LIDAR error model of Naus & Marchel (2019), Section 2: eqs. 5, 8 and 9.
 
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{Matrix2, Point2, Vector2};
 use serde::{Deserialize, Serialize};
 
 use crate::IcpError;
@@ -111,6 +111,24 @@ impl SensorModel {
         u_r * u_r.transpose() * (along * along) + u_t * u_t.transpose() * (across * across)
     }
 
+    /// The covariance of eq. 8 at the return whose point is `point` and range `range_m`,
+    /// without trigonometry: the beam direction `u_r` is `point / range`.
+    #[inline]
+    pub fn covariance_at(&self, point: &Point2<f64>, range_m: f64) -> Matrix2<f64> {
+        let u = point.coords / range_m;
+        let along = self.sigma_r_m(range_m);
+        let across = self.sigma_alpha_rad * range_m;
+        let (a2, c2) = (along * along, across * across);
+        // σ_r² u uᵀ + (σ_α r)² u⊥ u⊥ᵀ, with u⊥ = (−u_y, u_x).
+        let xy = (a2 - c2) * u.x * u.y;
+        Matrix2::new(
+            a2 * u.x * u.x + c2 * u.y * u.y,
+            xy,
+            xy,
+            a2 * u.y * u.y + c2 * u.x * u.x,
+        )
+    }
+
     /// Variance of the point's position along the direction `β`, m² (eq. 9, matrix form
     /// `S_β Cov S_βᵀ` with `S_β = [cos β, sin β]`; the printed expansion has typesetting slips).
     pub fn directional_variance(&self, range_m: f64, bearing_rad: f64, beta_rad: f64) -> f64 {
@@ -136,6 +154,23 @@ impl SensorModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn covariance_at_a_point_is_eq_8_without_trigonometry() {
+        let m = SensorModel {
+            sigma_r_const_m: 0.01,
+            ..SensorModel::sweep()
+        };
+        for i in 0..50 {
+            let (r, a) = (0.5 + 0.8 * i as f64, -3.0 + 0.13 * i as f64);
+            let p = Point2::new(r * a.cos(), r * a.sin());
+            let (want, got) = (m.covariance(r, a), m.covariance_at(&p, r));
+            assert!(
+                (want - got).norm() <= 1e-14 * want.norm(),
+                "{want} vs {got}"
+            );
+        }
+    }
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
     use rand_distr::{Distribution, Normal};

@@ -100,7 +100,7 @@ impl Problem {
             dst_points: &self.dst_points,
             src_surfaces: &self.src_surfaces,
             dst_surfaces: &self.dst_surfaces,
-            rotation_ref_src: t.rotation,
+            t_ref_src: *t,
         }
     }
 

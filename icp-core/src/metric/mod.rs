@@ -144,10 +144,7 @@ impl Anchor {
         let (source, reference) = match self {
             Anchor::NeighbourhoodMeans => {
                 let sp = set.src_surfaces.get(c.src).copied().flatten()?;
-                // `R m + T = (R p + T) + R (m − p)`: the mean moved with its return.
-                let moved_mean =
-                    set.src_moved[c.src] + set.rotation_ref_src * (sp.mean - set.src[c.src].point);
-                (moved_mean, surface.mean)
+                (set.t_ref_src * sp.mean, surface.mean)
             }
             Anchor::Returns => (set.src_moved[c.src], set.dst_points[c.dst]),
         };

@@ -74,12 +74,12 @@ impl PlaneToPlane {
         let c = set.pairs[i];
         let sp = set.src_surfaces[c.src]?;
         let ends = self.params.anchor.ends(set, i)?;
-        let r = set.rotation_ref_src.to_rotation_matrix().into_inner();
+        let r = set.t_ref_src.rotation.to_rotation_matrix().into_inner();
         let (mut cp, mut cq) = (sp.covariance, ends.surface.covariance);
         if self.params.covariance == SurfaceCovariance::SurfaceAndSensor {
             let (rp, rq) = (&set.src[c.src], &set.dst[c.dst]);
-            cp += self.sensor.covariance(rp.range_m, rp.bearing_rad);
-            cq += self.sensor.covariance(rq.range_m, rq.bearing_rad);
+            cp += self.sensor.covariance_at(&rp.point, rp.range_m);
+            cq += self.sensor.covariance_at(&rq.point, rq.range_m);
         }
         Some((ends, (cq + r * cp * r.transpose()).try_inverse()?))
     }

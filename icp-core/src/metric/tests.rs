@@ -19,7 +19,7 @@ struct Fixture {
     dst_points: Vec<Point2<f64>>,
     src_surfaces: Vec<Option<SurfacePoint>>,
     dst_surfaces: Vec<Option<SurfacePoint>>,
-    rotation: UnitComplex<f64>,
+    t: Isometry2<f64>,
 }
 
 fn ret(p: Point2<f64>) -> Return {
@@ -90,7 +90,7 @@ fn fixture() -> Fixture {
         src,
         dst,
         moved,
-        rotation,
+        t,
     }
 }
 
@@ -104,7 +104,7 @@ impl Fixture {
             dst_points: &self.dst_points,
             src_surfaces: &self.src_surfaces,
             dst_surfaces: &self.dst_surfaces,
-            rotation_ref_src: self.rotation,
+            t_ref_src: self.t,
         }
     }
 }
@@ -214,8 +214,7 @@ fn residuals_by_hand_and_unusable_pairs() {
                     } else {
                         // The source mean moved like its return.
                         let sp = set.src_surfaces[c.src].unwrap();
-                        let p = set.src_moved[c.src]
-                            + set.rotation_ref_src * (sp.mean - set.src[c.src].point);
+                        let p = set.t_ref_src * sp.mean;
                         (p, s.mean)
                     };
                     let e = p - q;
@@ -256,7 +255,7 @@ fn plane_to_plane_information_is_the_inverse_combined_covariance() {
         dst_points: &[q.point],
         src_surfaces: &[sp],
         dst_surfaces: &[sq],
-        rotation_ref_src: UnitComplex::identity(),
+        t_ref_src: Isometry2::identity(),
     };
     let metric = PlaneToPlane {
         params: PlaneToPlaneParams::default(),

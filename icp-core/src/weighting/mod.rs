@@ -73,7 +73,7 @@ pub trait PairWeighting: Send + Sync {
                 src: &set.src[c.src],
                 dst: &set.dst[c.dst],
                 src_moved: set.src_moved[c.src],
-                rotation_ref_src: set.rotation_ref_src,
+                rotation_ref_src: set.t_ref_src.rotation,
                 normal: set.dst_surfaces[c.dst].map(|s| s.normal),
             })
         }));
