@@ -52,9 +52,14 @@ pub struct GridIndex {
 #[derive(Clone, Copy, Debug)]
 struct Certificate {
     anchor: Point2<f64>,
-    clearance: f64,
+    /// The clearance less the safety margin.
+    limit: f64,
     best: usize,
     second: usize,
+    /// The candidates' positions (the second's infinite when there is none), so that the
+    /// test reads no other memory.
+    best_at: Point2<f64>,
+    second_at: Point2<f64>,
     dist_sq: f64,
 }
 
@@ -76,6 +81,13 @@ struct Nearest {
 /// No point.
 const NONE: usize = usize::MAX;
 
+/// Squared distance from `q` to `p`, computed as every matcher does.
+#[inline]
+fn dist_sq(p: &Point2<f64>, q: &Point2<f64>) -> f64 {
+    let (dx, dy) = (p.x - q.x, p.y - q.y);
+    dx * dx + dy * dy
+}
+
 /// True when point `a` at squared distance `da` comes before point `b` at `db`.
 #[inline]
 fn precedes(a: usize, da: f64, b: usize, db: f64) -> bool {
@@ -93,6 +105,9 @@ impl Nearest {
 
     #[inline]
     fn offer(&mut self, id: usize, d: f64) {
+        if d > self.d3 {
+            return; // farther than the third: changes nothing
+        }
         // Written as selects, not branches: which point wins is unpredictable.
         let first = precedes(id, d, self.best, self.d1);
         let second = !first && precedes(id, d, self.second, self.d2);
@@ -114,21 +129,30 @@ impl Nearest {
     /// The certificate at `anchor`, every point outside the visited cells being at least
     /// `outside` away. A non-finite query finds nothing: index 0 at infinite distance, as from
     /// the brute-force search, and no clearance.
-    fn certificate(self, anchor: Point2<f64>, outside: f64) -> Certificate {
+    fn certificate(self, anchor: Point2<f64>, outside: f64, points: &[Point2<f64>]) -> Certificate {
+        let far = Point2::new(f64::INFINITY, f64::INFINITY);
         if self.best == NONE {
             return Certificate {
                 anchor,
-                clearance: 0.0,
+                limit: 0.0,
                 best: 0,
                 second: NONE,
+                best_at: points[0],
+                second_at: far,
                 dist_sq: f64::INFINITY,
             };
         }
         Certificate {
             anchor,
-            clearance: self.d3.sqrt().min(outside),
+            limit: self.d3.sqrt().min(outside) * (1.0 - CERTIFICATE_MARGIN),
             best: self.best,
             second: self.second,
+            best_at: points[self.best],
+            second_at: if self.second == NONE {
+                far
+            } else {
+                points[self.second]
+            },
             dist_sq: self.d1,
         }
     }
@@ -158,9 +182,7 @@ impl GridIndex {
     /// Squared distance from `q` to reference point `id`, computed as every matcher does.
     #[inline]
     fn dist_sq(&self, q: &Point2<f64>, id: usize) -> f64 {
-        let p = self.points[id];
-        let (dx, dy) = (p.x - q.x, p.y - q.y);
-        dx * dx + dy * dy
+        dist_sq(&self.points[id], q)
     }
 
     /// Offers the points of the cells `[cx0, cx1] × [cy0, cy1]` to `found`.
@@ -178,8 +200,7 @@ impl GridIndex {
                 .iter()
                 .zip(&self.cells.ids[range])
             {
-                let (dx, dy) = (p.x - q.x, p.y - q.y);
-                found.offer(id as usize, dx * dx + dy * dy);
+                found.offer(id as usize, dist_sq(p, q));
             }
         }
     }
@@ -198,7 +219,11 @@ impl GridIndex {
         let hi = self.cells.cell_xy(&Point2::new(q.x + r, q.y + r));
         let mut found = Nearest::EMPTY;
         self.scan_cells(q, (lo.0, hi.0), (lo.1, hi.1), &mut found);
-        found.certificate(*q, self.cells.outside_bound(q, (lo.0, hi.0), (lo.1, hi.1)))
+        found.certificate(
+            *q,
+            self.cells.outside_bound(q, (lo.0, hi.0), (lo.1, hi.1)),
+            &self.points,
+        )
     }
 
     /// The two nearest points to `q` without a hint: rings of cells around `q`'s (clamped) cell
@@ -234,7 +259,7 @@ impl GridIndex {
             // extends past.
             let bound = self.cells.outside_bound(q, (x_lo, x_hi), (y_lo, y_hi));
             if bound == f64::INFINITY || found.d3 <= bound * bound {
-                return found.certificate(*q, bound);
+                return found.certificate(*q, bound, &self.points);
             }
         }
         unreachable!("the rings end once they cover the grid")
@@ -256,18 +281,18 @@ impl NearestIndex for GridIndex {
         let mut certificates = std::mem::take(&mut self.certificates);
         if certificates.len() == queries.len() {
             for (c, q) in certificates.iter_mut().zip(queries) {
-                let (mut best, mut dist_sq) = (c.best, self.dist_sq(q, c.best));
-                if c.second != NONE {
-                    let d = self.dist_sq(q, c.second);
-                    if precedes(c.second, d, best, dist_sq) {
-                        (best, dist_sq) = (c.second, d);
-                    }
-                }
+                let (d_best, d_second) = (dist_sq(&c.best_at, q), dist_sq(&c.second_at, q));
+                let (best, dist_sq) = if precedes(c.second, d_second, c.best, d_best) {
+                    (c.second, d_second)
+                } else {
+                    (c.best, d_best)
+                };
                 let drift = (q - c.anchor).norm();
-                if dist_sq.sqrt() + drift < c.clearance * (1.0 - CERTIFICATE_MARGIN) {
+                if dist_sq.sqrt() + drift < c.limit {
                     // The same two candidates, the nearer first.
                     if best != c.best {
-                        (c.best, c.second) = (best, c.best);
+                        (c.best, c.second) = (c.second, c.best);
+                        (c.best_at, c.second_at) = (c.second_at, c.best_at);
                     }
                     c.dist_sq = dist_sq;
                 } else {
