@@ -21,6 +21,9 @@ pub struct Cells {
     pub nx: usize,
     /// Cells along y.
     pub ny: usize,
+    /// `nx − 1` and `ny − 1` as floats, for clamping.
+    max_fx: f64,
+    max_fy: f64,
 }
 
 /// Most cells along one side.
@@ -91,18 +94,18 @@ impl Cells {
             inv_h,
             nx,
             ny,
+            max_fx: (nx - 1) as f64,
+            max_fy: (ny - 1) as f64,
         }
     }
 
     /// Cell coordinates of `q`, clamped into the grid.
     #[inline]
     pub fn cell_xy(&self, q: &Point2<f64>) -> (usize, usize) {
-        let fx = ((q.x - self.x0) * self.inv_h).max(0.0);
-        let fy = ((q.y - self.y0) * self.inv_h).max(0.0);
-        (
-            (fx as usize).min(self.nx - 1),
-            (fy as usize).min(self.ny - 1),
-        )
+        // Clamped as floats (a NaN goes to 0), then converted: at most 2^15 cells a side.
+        let fx = ((q.x - self.x0) * self.inv_h).max(0.0).min(self.max_fx);
+        let fy = ((q.y - self.y0) * self.inv_h).max(0.0).min(self.max_fy);
+        (fx as i32 as usize, fy as i32 as usize)
     }
 
     /// The positions in `points`/`ids` of the cells `cx0..=cx1` of row `cy`.
@@ -115,25 +118,37 @@ impl Cells {
     /// A lower bound on the distance from `q` to any point outside the cells
     /// `[x_lo, x_hi] × [y_lo, y_hi]`: the distance to the nearest side of that block which the
     /// grid extends past (infinite when the block covers the grid).
+    #[inline]
     pub fn outside_bound(
         &self,
         q: &Point2<f64>,
         (x_lo, x_hi): (usize, usize),
         (y_lo, y_hi): (usize, usize),
     ) -> f64 {
-        let mut bound = f64::INFINITY;
-        if x_lo > 0 {
-            bound = bound.min(q.x - (self.x0 + x_lo as f64 * self.h));
-        }
-        if x_hi + 1 < self.nx {
-            bound = bound.min(self.x0 + (x_hi + 1) as f64 * self.h - q.x);
-        }
-        if y_lo > 0 {
-            bound = bound.min(q.y - (self.y0 + y_lo as f64 * self.h));
-        }
-        if y_hi + 1 < self.ny {
-            bound = bound.min(self.y0 + (y_hi + 1) as f64 * self.h - q.y);
-        }
-        bound
+        // Cell counts fit in u32 (at most 2^15 a side): cheap conversions.
+        let edge = |c: usize| c as u32 as f64 * self.h;
+        let inf = f64::INFINITY;
+        let left = if x_lo > 0 {
+            q.x - (self.x0 + edge(x_lo))
+        } else {
+            inf
+        };
+        let right = if x_hi + 1 < self.nx {
+            self.x0 + edge(x_hi + 1) - q.x
+        } else {
+            inf
+        };
+        let below = if y_lo > 0 {
+            q.y - (self.y0 + edge(y_lo))
+        } else {
+            inf
+        };
+        let above = if y_hi + 1 < self.ny {
+            self.y0 + edge(y_hi + 1) - q.y
+        } else {
+            inf
+        };
+        // From infinity, as NaN-ignoring minima: a NaN query gets no bound (infinity).
+        inf.min(left).min(right).min(below).min(above)
     }
 }
