@@ -54,25 +54,50 @@ pub fn weighted_moments(
             got: weights.len(),
         });
     }
+    // Written out coordinate by coordinate, each sum in pair order with the operations of
+    // the vector forms (`sp += p * w`, `c += (p − m_p)(q − m_q)ᵀ w`): the same numbers.
     let mut w_sum = 0.0;
-    let mut sp = Vector2::zeros();
-    let mut sq = Vector2::zeros();
-    for (i, (pair, &w)) in pairs.iter().zip(weights).enumerate() {
-        if !w.is_finite() || w < 0.0 {
+    let (mut sp_x, mut sp_y, mut sq_x, mut sq_y) = (0.0, 0.0, 0.0, 0.0);
+    // Every weight must be finite and not negative. Checked at the end: a negative one makes
+    // the smallest negative, an infinite or NaN one makes the sum so (and a sum can also
+    // overflow: then the weights are searched for nothing).
+    let mut w_min = f64::INFINITY;
+    for (pair, &w) in pairs.iter().zip(weights) {
+        w_min = w_min.min(w);
+        let (p, q) = (src[pair.src], dst[pair.dst]);
+        w_sum += w;
+        sp_x += p.x * w;
+        sp_y += p.y * w;
+        sq_x += q.x * w;
+        sq_y += q.y * w;
+    }
+    if w_min < 0.0 || !w_sum.is_finite() {
+        if let Some((i, &w)) = weights
+            .iter()
+            .enumerate()
+            .find(|(_, w)| !w.is_finite() || **w < 0.0)
+        {
             return Err(IcpError::InvalidWeight { pair: i, value: w });
         }
-        w_sum += w;
-        sp += src[pair.src].coords * w;
-        sq += dst[pair.dst].coords * w;
     }
     if !(w_sum > 0.0 && w_sum.is_finite()) {
         return Err(IcpError::DegenerateWeights { sum: w_sum });
     }
-    let (m_p, m_q) = (sp / w_sum, sq / w_sum); // eq. 15
-    let mut c = Matrix2::zeros();
+    let (m_p, m_q) = (
+        Vector2::new(sp_x, sp_y) / w_sum,
+        Vector2::new(sq_x, sq_y) / w_sum,
+    ); // eq. 15
+    let (mut c00, mut c01, mut c10, mut c11) = (0.0, 0.0, 0.0, 0.0);
     for (pair, &w) in pairs.iter().zip(weights) {
-        c += (src[pair.src].coords - m_p) * (dst[pair.dst].coords - m_q).transpose() * w;
+        let (p, q) = (src[pair.src], dst[pair.dst]);
+        let (ax, ay) = (p.x - m_p.x, p.y - m_p.y);
+        let (bx, by) = (q.x - m_q.x, q.y - m_q.y);
+        c00 += ax * bx * w;
+        c01 += ax * by * w;
+        c10 += ay * bx * w;
+        c11 += ay * by * w;
     }
+    let c = Matrix2::new(c00, c01, c10, c11);
     Ok(WeightedMoments {
         m_p,
         m_q,
