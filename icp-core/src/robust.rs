@@ -183,6 +183,7 @@ impl RobustKernel for MedianScaled {
             ScaleFrom::PairDistance => pair_distance_m,
             ScaleFrom::Residual => residual_m,
         };
+        // The distances of the usable pairs (NaN residual: unusable), in order.
         scratch.clear();
         scratch.extend(
             dist_m
@@ -204,10 +205,26 @@ impl RobustKernel for MedianScaled {
             }
             return;
         }
-        for ((&d, r), w) in dist_m.iter().zip(residual_m).zip(weights.iter_mut()) {
-            if !r.is_nan() {
-                *w *= self.kernel.factor(d / k);
+        // One loop per kernel, so that the kernel's formula is inlined in it.
+        fn scale(
+            dist_m: &[f64],
+            residual_m: &[f64],
+            weights: &mut [f64],
+            k: f64,
+            factor: impl Fn(f64) -> f64,
+        ) {
+            for ((&d, r), w) in dist_m.iter().zip(residual_m).zip(weights.iter_mut()) {
+                if !r.is_nan() {
+                    *w *= factor(d / k);
+                }
             }
+        }
+        let (d, r) = (dist_m, residual_m);
+        match self.kernel {
+            Kernel::Huber => scale(d, r, weights, k, |u| Kernel::Huber.factor(u)),
+            Kernel::Tukey => scale(d, r, weights, k, |u| Kernel::Tukey.factor(u)),
+            Kernel::Cauchy => scale(d, r, weights, k, |u| Kernel::Cauchy.factor(u)),
+            Kernel::GemanMcClure => scale(d, r, weights, k, |u| Kernel::GemanMcClure.factor(u)),
         }
     }
 }
