@@ -221,7 +221,16 @@ impl RobustKernel for MedianScaled {
         }
         let (d, r) = (dist_m, residual_m);
         match self.kernel {
-            Kernel::Huber => scale(d, r, weights, k, |u| Kernel::Huber.factor(u)),
+            Kernel::Huber => {
+                // Huber's factor is 1 up to the threshold: a pair with d <= k has u = d / k
+                // <= 1 (rounding is monotonic), and w * 1 = w, so it is left alone without
+                // the division; the others take the factor of u as it is computed.
+                for ((&d, r), w) in d.iter().zip(r).zip(weights.iter_mut()) {
+                    if !(d <= k) && !r.is_nan() {
+                        *w *= Kernel::Huber.factor(d / k);
+                    }
+                }
+            }
             Kernel::Tukey => scale(d, r, weights, k, |u| Kernel::Tukey.factor(u)),
             Kernel::Cauchy => scale(d, r, weights, k, |u| Kernel::Cauchy.factor(u)),
             Kernel::GemanMcClure => scale(d, r, weights, k, |u| Kernel::GemanMcClure.factor(u)),
