@@ -226,7 +226,7 @@ impl RobustKernel for MedianScaled {
                 // <= 1 (rounding is monotonic), and w * 1 = w, so it is left alone without
                 // the division; the others take the factor of u as it is computed.
                 for ((&d, r), w) in d.iter().zip(r).zip(weights.iter_mut()) {
-                    if !(d <= k) && !r.is_nan() {
+                    if (d > k || d.is_nan()) && !r.is_nan() {
                         *w *= Kernel::Huber.factor(d / k);
                     }
                 }
