@@ -3,7 +3,7 @@
 use nalgebra::{Isometry2, Point2};
 
 use crate::error::{ConfigError, ScanRole};
-use crate::matching::{Correspondence, Matcher};
+use crate::matching::{Correspondence, LastIndex, Matcher};
 use crate::metric::Metric;
 use crate::minimize::Minimizer;
 use crate::pairs::PairSet;
@@ -92,9 +92,10 @@ impl Icp {
 }
 
 /// The buffers of a registration. Passing one workspace to successive registrations (one per
-/// thread) reuses them: after the first, a registration allocates only for its
-/// nearest-neighbour index and the overlap check. What it holds between calls never changes a
-/// result.
+/// thread) reuses them: after the first, a registration allocates only for the overlap check
+/// and, when its reference points or matcher differ from the previous registration's, for a
+/// new nearest-neighbour index (the variants of one pair share one). What it holds between
+/// calls never changes a result.
 #[derive(Debug, Default)]
 pub struct Workspace {
     src_idx: Vec<usize>,
@@ -111,6 +112,7 @@ pub struct Workspace {
     residuals: Vec<f64>,
     weights: Vec<f64>,
     scratch: Vec<f64>,
+    index: LastIndex,
 }
 
 /// `Err` unless `init` is finite.
@@ -211,6 +213,7 @@ impl Registrar for Icp {
             residuals,
             weights,
             scratch,
+            index,
         } = workspace;
 
         // Alg. 1 step 1: selection; the chosen points are gathered once, before the loop.
@@ -241,7 +244,7 @@ impl Registrar for Icp {
         pairs.reserve(n);
         moved.clear();
         moved.extend(src_pts.iter().map(|p| init * p)); // eqs. 21, 22 at the start
-        let mut index = self.matcher.build(dst_pts)?;
+        let index = index.get(self.matcher.as_ref(), dst_pts)?;
         index.match_all(moved, pairs); // Alg. 1 step 2, first time
 
         let mut t_ref_src = init;
@@ -266,8 +269,15 @@ impl Registrar for Icp {
             dists.extend(set.pairs.iter().map(|p| p.dist_sq.sqrt()));
             // The metric's residuals; NaN marks a pair it cannot use.
             self.metric.residuals(&set, dists, residuals);
-            let used = residuals.iter().filter(|r| !r.is_nan()).count();
-            let mean = residuals.iter().filter(|r| !r.is_nan()).sum::<f64>() / used as f64;
+            // Their count and mean, in one pass (summed in order from −0, as `Iterator::sum`).
+            let (used, sum) = residuals.iter().fold((0usize, -0.0f64), |(n, sum), &r| {
+                if r.is_nan() {
+                    (n, sum)
+                } else {
+                    (n + 1, sum + r)
+                }
+            });
+            let mean = sum / used as f64;
             // Alg. 1 step 6: the paper's rule, then the update rule, then the limit.
             if let Some(prev) = previous_mean {
                 if self.termination.converged(prev, mean) {
@@ -292,9 +302,11 @@ impl Registrar for Icp {
             }
             // Alg. 1 step 3, eqs. 11–13: the scheme's weight of each usable pair.
             self.weighting.weigh_all(&set, weights);
-            for (w, r) in weights.iter_mut().zip(residuals.iter()) {
-                if r.is_nan() {
-                    *w = 0.0;
+            if used < residuals.len() {
+                for (w, r) in weights.iter_mut().zip(residuals.iter()) {
+                    if r.is_nan() {
+                        *w = 0.0;
+                    }
                 }
             }
             // Alg. 1 step 4: the robust factor (Huber), from the batch's distances.

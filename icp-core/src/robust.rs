@@ -185,13 +185,18 @@ impl RobustKernel for MedianScaled {
         };
         // The distances of the usable pairs (NaN residual: unusable), in order.
         scratch.clear();
-        scratch.extend(
-            dist_m
-                .iter()
-                .zip(residual_m)
-                .filter(|(_, r)| !r.is_nan())
-                .map(|(&d, _)| d),
-        );
+        let all_usable = residual_m.iter().all(|r| !r.is_nan());
+        if all_usable {
+            scratch.extend_from_slice(dist_m);
+        } else {
+            scratch.extend(
+                dist_m
+                    .iter()
+                    .zip(residual_m)
+                    .filter(|(_, r)| !r.is_nan())
+                    .map(|(&d, _)| d),
+            );
+        }
         let Some(median) = median_in_place(scratch) else {
             return;
         };

@@ -13,11 +13,13 @@ mod brute;
 mod delaunay;
 mod grid;
 mod kdtree;
+mod last_index;
 
 pub use brute::BruteForce;
 pub use delaunay::Delaunay;
 pub use grid::Grid;
 pub use kdtree::KdTree;
+pub(crate) use last_index::LastIndex;
 
 /// One matched pair: source point `src` (moved) and its nearest reference point `dst`.
 /// The distance is *squared*, as nearest-neighbour indices return it.
