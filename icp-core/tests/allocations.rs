@@ -113,17 +113,25 @@ fn a_reused_workspace_keeps_the_buffers() {
         count(&mut workspace, a, b);
         let (warm_other, other_again) = count(&mut workspace, other_a, other_b);
         let (warm_same, again) = count(&mut workspace, a, b);
+        // The same pair right after (as the next variant of a pair is): the index is kept.
+        let (reused_index, once_more) = count(&mut workspace, a, b);
         assert_eq!(again, first, "{name}: a used workspace changes nothing");
+        assert_eq!(once_more, first, "{name}: nor does a kept index");
         assert_eq!(other_again, other_first, "{name}: whatever pair it held");
         // What remains: the matcher's index (for the grid: a box, four arrays of its cells,
-        // its copy of the points and its certificates) and the overlap check's two arrays;
-        // everything else is the workspace's.
+        // its copy of the points and its certificates), the matcher's spec that the workspace
+        // compares with the index it kept, and the overlap check's two arrays; everything
+        // else is the workspace's.
         assert_eq!(
             warm_same, warm_other,
             "{name}: a warm workspace allocates the same for any pair"
         );
         assert!(
-            warm_same <= 9,
+            reused_index + 5 <= warm_same,
+            "{name}: {reused_index} allocations with the index kept, {warm_same} without"
+        );
+        assert!(
+            warm_same <= 10,
             "{name}: {warm_same} allocations with a warm workspace ({fresh} without)"
         );
         assert!(fresh > warm_same + 10, "{name}: {fresh} vs {warm_same}");

@@ -50,14 +50,24 @@ impl LastIndex {
     ) -> Result<&mut dyn NearestIndex, IcpError> {
         let spec = matcher.spec();
         let keep = !spec.kind.starts_with(UNREGISTERED);
-        let built = match self.0.take() {
-            Some(last) if keep && last.matcher == spec && last.reference == reference => last,
-            _ => Built {
-                index: matcher.build(reference)?,
-                // A user's matcher is built afresh each time: nothing to compare with.
-                reference: if keep { reference.to_vec() } else { Vec::new() },
-                matcher: spec,
-            },
+        // The kept points' buffer is refilled for a new index (no allocation once warm).
+        let mut points = Vec::new();
+        match self.0.take() {
+            Some(last) if keep && last.matcher == spec && last.reference == reference => {
+                return Ok(self.0.insert(last).index.as_mut());
+            }
+            Some(last) => points = last.reference,
+            None => {}
+        }
+        points.clear();
+        if keep {
+            // A user's matcher is built afresh each time: nothing is kept to compare with.
+            points.extend_from_slice(reference);
+        }
+        let built = Built {
+            index: matcher.build(reference)?,
+            reference: points,
+            matcher: spec,
         };
         Ok(self.0.insert(built).index.as_mut())
     }
