@@ -9,6 +9,9 @@ use datasets::{Dataset, ScanPair};
 use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
 use indicatif::ProgressBar;
 use nalgebra::Isometry2;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 /// One registration's outcome and its wall time.
@@ -97,14 +100,23 @@ pub fn run_all(
 ) -> Runs {
     let init = Isometry2::identity();
     let (prepared, prepare_us) = prepare(ds, pairs, registrars);
+    let n = registrars.len();
     let per_pair: Vec<Vec<PairRun>> = pairs
         .par_iter()
+        .enumerate()
         // One workspace per rayon job: buffers are reused across the pairs a thread runs
         // (results never depend on what a workspace held before).
-        .map_init(Workspace::default, |workspace, pair| {
-            registrars
-                .iter()
-                .map(|reg| {
+        .map_init(Workspace::default, |workspace, (position, pair)| {
+            // A workspace hands a variant the reference index and first matching of the one
+            // before it on the same pair (same selection, matcher and start): the first of
+            // such a group pays for both. Each pair runs its variants in its own order, so
+            // every variant comes first in its group equally often and the timings compare.
+            let mut order: Vec<usize> = (0..n).collect();
+            order.shuffle(&mut ChaCha8Rng::seed_from_u64(position as u64));
+            let mut runs: Vec<(usize, PairRun)> = order
+                .into_iter()
+                .map(|v| {
+                    let reg = &registrars[v];
                     let params = reg.surface_params();
                     let prepared_scan =
                         |k: usize| Prepared::new(&ds.scans[k], prepared.get(&params, k));
@@ -114,9 +126,11 @@ pub fn run_all(
                     let result = reg.register_prepared(workspace, source, reference, init);
                     let time_us = start.elapsed().as_secs_f64() * 1e6;
                     progress.inc(1);
-                    PairRun { result, time_us }
+                    (v, PairRun { result, time_us })
                 })
-                .collect()
+                .collect();
+            runs.sort_by_key(|(v, _)| *v);
+            runs.into_iter().map(|(_, run)| run).collect()
         })
         .collect();
     let mut per_variant: Vec<Vec<PairRun>> = registrars

@@ -94,8 +94,8 @@ impl Icp {
 /// The buffers of a registration. Passing one workspace to successive registrations (one per
 /// thread) reuses them: after the first, a registration allocates only for the overlap check
 /// and, when its reference points or matcher differ from the previous registration's, for a
-/// new nearest-neighbour index (the variants of one pair share one). What it holds between
-/// calls never changes a result.
+/// new nearest-neighbour index (the variants of one pair share one, and their first matching
+/// when they start alike). What it holds between calls never changes a result.
 #[derive(Debug, Default)]
 pub struct Workspace {
     src_idx: Vec<usize>,
@@ -244,8 +244,9 @@ impl Registrar for Icp {
         pairs.reserve(n);
         moved.clear();
         moved.extend(src_pts.iter().map(|p| init * p)); // eqs. 21, 22 at the start
-        let index = index.get(self.matcher.as_ref(), dst_pts)?;
-        index.match_all(moved, pairs); // Alg. 1 step 2, first time
+                                                        // Alg. 1 step 2, first time (the index and these pairs are the previous registration's
+                                                        // when it had the same reference points, matcher and start: the variants of a pair).
+        let index = index.first_matching(self.matcher.as_ref(), dst_pts, moved, pairs)?;
 
         let mut t_ref_src = init;
         let mut previous_mean: Option<f64> = None;
