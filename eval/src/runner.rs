@@ -1,7 +1,9 @@
-//! Runs registrars over scan pairs in parallel. The surface estimates of every scan are made
-//! once (per distinct set of parameters among the variants) and shared by every registration
-//! that uses the scan; then rayon runs the pairs, each pair's variants one after the other in
-//! one workspace. Results are collected by index, so they do not depend on the thread count.
+//! Runs registrars over scan pairs in parallel, a block of pairs at a time. The surface
+//! estimates of a block's scans are made once (per distinct set of parameters among the
+//! variants), shared by every registration that uses the scan, and dropped after the block
+//! (a scan shared with the next block is kept), so memory follows the block, not the dataset.
+//! Within a block rayon runs the pairs, each pair's variants one after the other in one
+//! workspace. Results are collected by index, so they do not depend on the thread count.
 
 use std::time::Instant;
 
@@ -35,14 +37,19 @@ pub struct Runs {
     pub prepare_us: Vec<f64>,
 }
 
-/// The surface estimates of the scans, per distinct parameter set.
-struct PreparedScans {
-    params: Vec<SurfaceParams>,
-    /// `per_scan[scan][set]` (`None` for a scan in no pair).
+/// Pairs per block. The surface estimates of the block's scans (one more than its pairs when
+/// they are consecutive) are held at once: ~12 MB for scans of ~650 returns. A block is long
+/// enough for the threads' barrier at its end to cost nothing measurable.
+const BLOCK_PAIRS: usize = 256;
+
+/// The surface estimates of some scans, per distinct parameter set.
+struct PreparedScans<'a> {
+    params: &'a [SurfaceParams],
+    /// `per_scan[scan][set]` (`None` for a scan outside the current block).
     per_scan: Vec<Option<Vec<Surfaces>>>,
 }
 
-impl PreparedScans {
+impl PreparedScans<'_> {
     fn get(&self, params: &SurfaceParams, scan: usize) -> &Surfaces {
         let set = self
             .params
@@ -51,44 +58,45 @@ impl PreparedScans {
             .expect("every variant's parameters were prepared");
         &self.per_scan[scan]
             .as_ref()
-            .expect("every scan of a pair was prepared")[set]
+            .expect("every scan of the block was prepared")[set]
     }
-}
 
-/// Estimates the surfaces of every scan of a pair with each parameter set of `registrars`,
-/// in parallel over scans; returns them and the time per scan.
-fn prepare(
-    ds: &Dataset,
-    pairs: &[ScanPair],
-    registrars: &[Box<dyn Registrar>],
-) -> (PreparedScans, Vec<f64>) {
-    let mut params: Vec<SurfaceParams> = Vec::new();
-    for r in registrars {
-        let p = r.surface_params();
-        if !params.contains(&p) {
-            params.push(p);
+    /// Keeps the estimates of the scans of `block` (taking those already made from
+    /// `self`), makes the others in parallel over scans, and appends their times to `times_us`.
+    fn advance(&mut self, ds: &Dataset, block: &[ScanPair], times_us: &mut Vec<f64>) {
+        let mut kept: Vec<Option<Vec<Surfaces>>> = (0..ds.scans.len()).map(|_| None).collect();
+        let mut needed = vec![false; ds.scans.len()];
+        for p in block {
+            for k in [p.source, p.reference] {
+                if kept[k].is_none() {
+                    kept[k] = self.per_scan[k].take();
+                }
+                needed[k] = kept[k].is_none();
+            }
         }
-    }
-    let mut used = vec![false; ds.scans.len()];
-    for p in pairs {
-        used[p.source] = true;
-        used[p.reference] = true;
-    }
-    let timed: Vec<Option<(Vec<Surfaces>, f64)>> = ds
-        .scans
-        .par_iter()
-        .zip(&used)
-        .map(|(scan, &used)| {
-            used.then(|| {
-                let start = Instant::now();
-                let s = params.iter().map(|p| Surfaces::estimate(scan, p)).collect();
-                (s, start.elapsed().as_secs_f64() * 1e6)
+        // The previous block's other estimates are dropped before the new ones are made.
+        self.per_scan = Vec::new();
+        let params = self.params;
+        let made: Vec<Option<(Vec<Surfaces>, f64)>> = ds
+            .scans
+            .par_iter()
+            .zip(&needed)
+            .map(|(scan, &needed)| {
+                needed.then(|| {
+                    let start = Instant::now();
+                    let s = params.iter().map(|p| Surfaces::estimate(scan, p)).collect();
+                    (s, start.elapsed().as_secs_f64() * 1e6)
+                })
             })
-        })
-        .collect();
-    let times = timed.iter().flatten().map(|(_, t)| *t).collect();
-    let per_scan = timed.into_iter().map(|t| t.map(|(s, _)| s)).collect();
-    (PreparedScans { params, per_scan }, times)
+            .collect();
+        for (slot, made) in kept.iter_mut().zip(made) {
+            if let Some((surfaces, time_us)) = made {
+                *slot = Some(surfaces);
+                times_us.push(time_us);
+            }
+        }
+        self.per_scan = kept;
+    }
 }
 
 /// Registers every pair with every registrar, from the identity (as the paper does).
@@ -99,40 +107,58 @@ pub fn run_all(
     progress: &ProgressBar,
 ) -> Runs {
     let init = Isometry2::identity();
-    let (prepared, prepare_us) = prepare(ds, pairs, registrars);
+    let mut params: Vec<SurfaceParams> = Vec::new();
+    for r in registrars {
+        let p = r.surface_params();
+        if !params.contains(&p) {
+            params.push(p);
+        }
+    }
+    let mut prepared = PreparedScans {
+        params: &params,
+        per_scan: (0..ds.scans.len()).map(|_| None).collect(),
+    };
+    let mut prepare_us = Vec::new();
     let n = registrars.len();
-    let per_pair: Vec<Vec<PairRun>> = pairs
-        .par_iter()
-        .enumerate()
-        // One workspace per rayon job: buffers are reused across the pairs a thread runs
-        // (results never depend on what a workspace held before).
-        .map_init(Workspace::default, |workspace, (position, pair)| {
-            // A workspace hands a variant the reference index and first matching of the one
-            // before it on the same pair (same selection, matcher and start): the first of
-            // such a group pays for both. Each pair runs its variants in its own order, so
-            // every variant comes first in its group equally often and the timings compare.
-            let mut order: Vec<usize> = (0..n).collect();
-            order.shuffle(&mut ChaCha8Rng::seed_from_u64(position as u64));
-            let mut runs: Vec<(usize, PairRun)> = order
-                .into_iter()
-                .map(|v| {
-                    let reg = &registrars[v];
-                    let params = reg.surface_params();
-                    let prepared_scan =
-                        |k: usize| Prepared::new(&ds.scans[k], prepared.get(&params, k));
-                    let (source, reference) =
-                        (prepared_scan(pair.source), prepared_scan(pair.reference));
-                    let start = Instant::now();
-                    let result = reg.register_prepared(workspace, source, reference, init);
-                    let time_us = start.elapsed().as_secs_f64() * 1e6;
-                    progress.inc(1);
-                    (v, PairRun { result, time_us })
-                })
-                .collect();
-            runs.sort_by_key(|(v, _)| *v);
-            runs.into_iter().map(|(_, run)| run).collect()
-        })
-        .collect();
+    let mut per_pair: Vec<Vec<PairRun>> = Vec::with_capacity(pairs.len());
+    for (b, block) in pairs.chunks(BLOCK_PAIRS).enumerate() {
+        prepared.advance(ds, block, &mut prepare_us);
+        let prepared = &prepared;
+        let runs: Vec<Vec<PairRun>> = block
+            .par_iter()
+            .enumerate()
+            // One workspace per rayon job: buffers are reused across the pairs a thread runs
+            // (results never depend on what a workspace held before).
+            .map_init(Workspace::default, |workspace, (i, pair)| {
+                let position = b * BLOCK_PAIRS + i;
+                // A workspace hands a variant the reference index and first matching of the one
+                // before it on the same pair (same selection, matcher and start): the first of
+                // such a group pays for both. Each pair runs its variants in its own order, so
+                // every variant comes first in its group equally often and the timings compare.
+                let mut order: Vec<usize> = (0..n).collect();
+                order.shuffle(&mut ChaCha8Rng::seed_from_u64(position as u64));
+                let mut runs: Vec<(usize, PairRun)> = order
+                    .into_iter()
+                    .map(|v| {
+                        let reg = &registrars[v];
+                        let params = reg.surface_params();
+                        let prepared_scan =
+                            |k: usize| Prepared::new(&ds.scans[k], prepared.get(&params, k));
+                        let (source, reference) =
+                            (prepared_scan(pair.source), prepared_scan(pair.reference));
+                        let start = Instant::now();
+                        let result = reg.register_prepared(workspace, source, reference, init);
+                        let time_us = start.elapsed().as_secs_f64() * 1e6;
+                        progress.inc(1);
+                        (v, PairRun { result, time_us })
+                    })
+                    .collect();
+                runs.sort_by_key(|(v, _)| *v);
+                runs.into_iter().map(|(_, run)| run).collect()
+            })
+            .collect();
+        per_pair.extend(runs);
+    }
     let mut per_variant: Vec<Vec<PairRun>> = registrars
         .iter()
         .map(|_| Vec::with_capacity(pairs.len()))
