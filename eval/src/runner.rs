@@ -106,6 +106,17 @@ pub fn run_all(
     registrars: &[Box<dyn Registrar>],
     progress: &ProgressBar,
 ) -> Runs {
+    run_blocks(ds, pairs, registrars, progress, BLOCK_PAIRS)
+}
+
+/// [`run_all`] with blocks of `block_pairs` pairs.
+fn run_blocks(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+    progress: &ProgressBar,
+    block_pairs: usize,
+) -> Runs {
     let init = Isometry2::identity();
     let mut params: Vec<SurfaceParams> = Vec::new();
     for r in registrars {
@@ -121,7 +132,7 @@ pub fn run_all(
     let mut prepare_us = Vec::new();
     let n = registrars.len();
     let mut per_pair: Vec<Vec<PairRun>> = Vec::with_capacity(pairs.len());
-    for (b, block) in pairs.chunks(BLOCK_PAIRS).enumerate() {
+    for (b, block) in pairs.chunks(block_pairs).enumerate() {
         prepared.advance(ds, block, &mut prepare_us);
         let prepared = &prepared;
         let runs: Vec<Vec<PairRun>> = block
@@ -130,7 +141,7 @@ pub fn run_all(
             // One workspace per rayon job: buffers are reused across the pairs a thread runs
             // (results never depend on what a workspace held before).
             .map_init(Workspace::default, |workspace, (i, pair)| {
-                let position = b * BLOCK_PAIRS + i;
+                let position = b * block_pairs + i;
                 // A workspace hands a variant the reference index and first matching of the one
                 // before it on the same pair (same selection, matcher and start): the first of
                 // such a group pays for both. Each pair runs its variants in its own order, so
@@ -171,5 +182,54 @@ pub fn run_all(
     Runs {
         per_variant,
         prepare_us,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use datasets::synthetic::{generate, Scenario};
+    use icp_core::variants::builtin;
+
+    use super::*;
+
+    #[test]
+    fn blocks_change_no_result_and_estimate_each_scan_once() {
+        let ds = generate(&Scenario {
+            n_scans: 12,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let (mut pairs, _) = ds.consecutive_pairs();
+        // A pair out of order and a scan used far from its neighbours.
+        pairs.push(ScanPair {
+            source: 0,
+            reference: 2,
+        });
+        let registrars: Vec<Box<dyn Registrar>> = ["HD_ICP", "GICP"]
+            .iter()
+            .map(|n| Box::new(builtin(n).unwrap().build().unwrap()) as Box<dyn Registrar>)
+            .collect();
+        let poses = |runs: &Runs| -> Vec<Vec<_>> {
+            runs.per_variant
+                .iter()
+                .map(|v| {
+                    v.iter()
+                        .map(|r| r.result.as_ref().unwrap().t_ref_src)
+                        .collect()
+                })
+                .collect()
+        };
+        let progress = ProgressBar::hidden();
+        let whole = run_blocks(&ds, &pairs, &registrars, &progress, BLOCK_PAIRS);
+        assert_eq!(whole.per_variant[0].len(), pairs.len());
+        for block_pairs in [1, 2, 5] {
+            let blocks = run_blocks(&ds, &pairs, &registrars, &progress, block_pairs);
+            assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
+            // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
+            // holds only the scans it shares with the block before (scan 10).
+            let expected = if block_pairs >= pairs.len() { 12 } else { 14 };
+            assert_eq!(blocks.prepare_us.len(), expected, "blocks of {block_pairs}");
+        }
+        assert_eq!(whole.prepare_us.len(), 12);
     }
 }
