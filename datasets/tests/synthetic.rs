@@ -2,7 +2,7 @@
 //! ICP recovering its exact ground truth.
 
 use datasets::synthetic::{generate, Scanner, ScannerConfig, Scenario, Segment, Turn};
-use datasets::DatasetError;
+use datasets::{Dataset, DatasetError};
 use icp_core::variants::builtin;
 use icp_core::Registrar;
 use icp_core::{SensorModel, Termination};
@@ -20,6 +20,26 @@ fn short(n_scans: usize) -> Scenario {
         }],
         ..Scenario::paper()
     }
+}
+
+/// The estimate of `reg` from the identity and the true `t_ref_src`, for every consecutive
+/// pair of `ds` (which has a rigid reference).
+fn estimates_and_truth(reg: &dyn Registrar, ds: &Dataset) -> Vec<(Isometry2<f64>, Isometry2<f64>)> {
+    let r = ds.reference.as_ref().unwrap();
+    ds.consecutive_pairs()
+        .0
+        .iter()
+        .map(|pair| {
+            let (source, reference) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+            let out = reg
+                .register(source, reference, Isometry2::identity())
+                .unwrap();
+            let truth = (r[pair.source].scan_pose().unwrap().inverse()
+                * r[pair.reference].scan_pose().unwrap())
+            .inverse();
+            (out.t_ref_src, truth)
+        })
+        .collect()
 }
 
 #[test]
@@ -155,7 +175,6 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
         ..short(16)
     };
     let ds = generate(&scenario).unwrap();
-    let r = ds.reference.as_ref().unwrap();
     let mut spec = builtin("HD_ICP").unwrap();
     spec.termination = Termination {
         max_iterations: 500,
@@ -163,23 +182,13 @@ fn hd_icp_recovers_noise_free_motion_to_sub_millimetre() {
         ..Termination::default()
     };
     let hd = spec.build().unwrap();
-    for pair in ds.consecutive_pairs().0 {
-        let out = hd
-            .register(
-                &ds.scans[pair.source],
-                &ds.scans[pair.reference],
-                Isometry2::identity(),
-            )
-            .unwrap();
-        let truth = (r[pair.source].scan_pose().unwrap().inverse()
-            * r[pair.reference].scan_pose().unwrap())
-        .inverse();
-        let dt = (out.t_ref_src.translation.vector - truth.translation.vector).norm();
-        let dr = (out.t_ref_src.rotation.angle() - truth.rotation.angle())
+    for (k, (estimate, truth)) in estimates_and_truth(&hd, &ds).into_iter().enumerate() {
+        let dt = (estimate.translation.vector - truth.translation.vector).norm();
+        let dr = (estimate.rotation.angle() - truth.rotation.angle())
             .abs()
             .to_degrees();
-        assert!(dt < 1e-3, "pair {pair:?}: translation error {dt} m");
-        assert!(dr < 0.01, "pair {pair:?}: rotation error {dr} deg");
+        assert!(dt < 1e-3, "pair {k}: translation error {dt} m");
+        assert!(dr < 0.01, "pair {k}: rotation error {dr} deg");
     }
 }
 
@@ -331,25 +340,12 @@ fn surface_metrics_recover_noise_free_steps_far_below_point_to_point() {
         ..Scenario::paper()
     };
     let ds = generate(&scenario).unwrap();
-    let r = ds.reference.as_ref().unwrap();
     let errors = |name: &str| -> Vec<f64> {
         let reg = builtin(name).unwrap().build().unwrap();
-        let mut e: Vec<f64> = ds
-            .consecutive_pairs()
-            .0
+        let mut e: Vec<f64> = estimates_and_truth(&reg, &ds)
             .iter()
-            .map(|pair| {
-                let out = reg
-                    .register(
-                        &ds.scans[pair.source],
-                        &ds.scans[pair.reference],
-                        Isometry2::identity(),
-                    )
-                    .unwrap();
-                let truth = (r[pair.source].scan_pose().unwrap().inverse()
-                    * r[pair.reference].scan_pose().unwrap())
-                .inverse();
-                (out.t_ref_src.translation.vector - truth.translation.vector).norm()
+            .map(|(estimate, truth)| {
+                (estimate.translation.vector - truth.translation.vector).norm()
             })
             .collect();
         e.sort_by(f64::total_cmp);

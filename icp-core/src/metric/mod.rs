@@ -65,6 +65,28 @@ pub struct NormalEquations {
     pub weight_sum: f64,
 }
 
+impl NormalEquations {
+    /// No pair yet: zero sums about `center`.
+    pub(crate) fn about(center: Point2<f64>) -> Self {
+        Self {
+            center,
+            hessian: Matrix3::zeros(),
+            gradient: Vector3::zeros(),
+            cost: 0.0,
+            weight_sum: 0.0,
+        }
+    }
+}
+
+/// The pairs with a positive weight (the ones a metric sums over): index and weight.
+fn weighted(weights: &[f64]) -> impl Iterator<Item = (usize, f64)> + '_ {
+    weights
+        .iter()
+        .copied()
+        .enumerate()
+        .filter(|&(_, w)| w > 0.0)
+}
+
 /// An error metric.
 pub trait Metric: Send + Sync {
     /// What this stage is, as configuration data.

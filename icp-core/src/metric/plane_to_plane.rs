@@ -1,11 +1,11 @@
 //! Plane-to-plane, 2D generalised ICP (Segal et al. 2009, "Generalized-ICP", RSS): each pair's
 //! difference weighed by the inverse of the two points' combined covariance.
 
-use nalgebra::{Isometry2, Matrix2, Matrix2x3, Matrix3, Vector2, Vector3};
+use nalgebra::{Isometry2, Matrix2, Matrix2x3, Vector2};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, within, Anchor, Ends, Metric, NormalEquations};
+use super::{center, check_gate, turn, weighted, within, Anchor, Ends, Metric, NormalEquations};
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 use crate::SensorModel;
@@ -108,40 +108,26 @@ impl Metric for PlaneToPlane {
     }
 
     fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations {
-        let c0 = center(set);
-        let (mut h, mut g, mut cost, mut weight_sum) =
-            (Matrix3::zeros(), Vector3::zeros(), 0.0, 0.0);
-        for (i, &w) in weights.iter().enumerate() {
-            if w <= 0.0 {
-                continue;
-            }
+        let mut eq = NormalEquations::about(center(set));
+        for (i, w) in weighted(weights) {
             let Some((ends, omega)) = self.terms(set, i) else {
                 continue;
             };
             let e: Vector2<f64> = ends.source - ends.reference;
-            let (tx, ty) = turn(&ends.source, &c0);
+            let (tx, ty) = turn(&ends.source, &eq.center);
             let j = Matrix2x3::new(1.0, 0.0, tx, 0.0, 1.0, ty);
             let omega_e = omega * e;
-            h += j.transpose() * omega * j * w;
-            g += j.transpose() * omega_e * w;
-            cost += w * e.dot(&omega_e);
-            weight_sum += w;
+            eq.hessian += j.transpose() * omega * j * w;
+            eq.gradient += j.transpose() * omega_e * w;
+            eq.cost += w * e.dot(&omega_e);
+            eq.weight_sum += w;
         }
-        NormalEquations {
-            center: c0,
-            hessian: h,
-            gradient: g,
-            cost,
-            weight_sum,
-        }
+        eq
     }
 
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64 {
         let mut cost = 0.0;
-        for (i, &w) in weights.iter().enumerate() {
-            if w <= 0.0 {
-                continue;
-            }
+        for (i, w) in weighted(weights) {
             if let Some((ends, omega)) = self.terms(set, i) {
                 let e = increment * ends.source - ends.reference;
                 cost += w * e.dot(&(omega * e));

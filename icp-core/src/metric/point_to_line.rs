@@ -1,11 +1,11 @@
 //! Point-to-line: the distance from the moved source point to the reference surface's tangent
 //! line (Chen & Medioni 1991, point-to-plane; Censi 2008, PLICP, in 2D).
 
-use nalgebra::{Isometry2, Matrix3, Vector3};
+use nalgebra::{Isometry2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, within, Anchor, Metric, NormalEquations};
+use super::{center, check_gate, turn, weighted, within, Anchor, Metric, NormalEquations};
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 
@@ -55,39 +55,25 @@ impl Metric for PointToLine {
     }
 
     fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations {
-        let c0 = center(set);
-        let (mut h, mut g, mut cost, mut weight_sum) =
-            (Matrix3::zeros(), Vector3::zeros(), 0.0, 0.0);
-        for (i, &w) in weights.iter().enumerate() {
-            if w <= 0.0 {
-                continue;
-            }
+        let mut eq = NormalEquations::about(center(set));
+        for (i, w) in weighted(weights) {
             let Some(ends) = self.anchor.ends(set, i) else {
                 continue;
             };
             let (n, r) = (ends.surface.normal, ends.normal_residual());
-            let (tx, ty) = turn(&ends.source, &c0);
+            let (tx, ty) = turn(&ends.source, &eq.center);
             let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
-            h += j * j.transpose() * w;
-            g += j * (w * r);
-            cost += w * r * r;
-            weight_sum += w;
+            eq.hessian += j * j.transpose() * w;
+            eq.gradient += j * (w * r);
+            eq.cost += w * r * r;
+            eq.weight_sum += w;
         }
-        NormalEquations {
-            center: c0,
-            hessian: h,
-            gradient: g,
-            cost,
-            weight_sum,
-        }
+        eq
     }
 
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64 {
         let mut cost = 0.0;
-        for (i, &w) in weights.iter().enumerate() {
-            if w <= 0.0 {
-                continue;
-            }
+        for (i, w) in weighted(weights) {
             if let Some(ends) = self.anchor.ends(set, i) {
                 let r = ends
                     .surface

@@ -1,10 +1,10 @@
 //! Point-to-point: the paper's metric (Naus & Marchel 2019, eq. 14).
 
-use nalgebra::{Isometry2, Matrix3, Vector3};
+use nalgebra::{Isometry2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, within, Metric, NormalEquations};
+use super::{center, check_gate, turn, weighted, within, Metric, NormalEquations};
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 
@@ -59,42 +59,30 @@ impl Metric for PointToPoint {
     }
 
     fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations {
-        let c0 = center(set);
-        let (mut h, mut g, mut cost, mut weight_sum) =
-            (Matrix3::zeros(), Vector3::zeros(), 0.0, 0.0);
-        for (c, &w) in set.pairs.iter().zip(weights) {
-            if w <= 0.0 {
-                continue;
-            }
+        let mut eq = NormalEquations::about(center(set));
+        for (i, w) in weighted(weights) {
+            let c = set.pairs[i];
             let m = set.src_moved[c.src];
             let e = m - set.dst_points[c.dst];
-            let (tx, ty) = turn(&m, &c0);
+            let (tx, ty) = turn(&m, &eq.center);
             // Two rows of J: [1, 0, tx] and [0, 1, ty].
             for (j, r) in [
                 (Vector3::new(1.0, 0.0, tx), e.x),
                 (Vector3::new(0.0, 1.0, ty), e.y),
             ] {
-                h += j * j.transpose() * w;
-                g += j * (w * r);
+                eq.hessian += j * j.transpose() * w;
+                eq.gradient += j * (w * r);
             }
-            cost += w * e.norm_squared();
-            weight_sum += w;
+            eq.cost += w * e.norm_squared();
+            eq.weight_sum += w;
         }
-        NormalEquations {
-            center: c0,
-            hessian: h,
-            gradient: g,
-            cost,
-            weight_sum,
-        }
+        eq
     }
 
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64 {
-        set.pairs
-            .iter()
-            .zip(weights)
-            .filter(|(_, &w)| w > 0.0)
-            .map(|(c, &w)| {
+        weighted(weights)
+            .map(|(i, w)| {
+                let c = set.pairs[i];
                 w * (increment * set.src_moved[c.src] - set.dst_points[c.dst]).norm_squared()
             })
             .sum()
