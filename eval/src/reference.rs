@@ -162,10 +162,11 @@ pub struct FlaggedStep {
     pub reason: String,
 }
 
-/// Flags reference steps whose speed or yaw rate departs from the rolling median of their
-/// neighbours (± [`PLAUSIBILITY_HALF_WINDOW`] steps) by more than
-/// [`PLAUSIBILITY_THRESHOLD_SIGMA`] robust standard deviations of all such departures.
-/// A repeated position (zero speed between moving neighbours) is caught this way.
+/// Flags reference steps whose speed or yaw rate departs from what their neighbours predict
+/// (± [`PLAUSIBILITY_HALF_WINDOW`] steps: their median, or near an end of the series their
+/// robust line; see [`predicted`]) by more than [`PLAUSIBILITY_THRESHOLD_SIGMA`] robust standard
+/// deviations of all such departures. A repeated position (zero speed between moving
+/// neighbours) is caught this way, at the ends of the series too.
 pub fn flag_implausible(pairs: &[ScanPair], sog_mps: &[f64], rot_dps: &[f64]) -> Vec<FlaggedStep> {
     let sog_out = outliers(sog_mps, SCALE_FLOOR_SOG_MPS);
     let rot_out = outliers(rot_dps, SCALE_FLOOR_ROT_DPS);
@@ -174,13 +175,13 @@ pub fn flag_implausible(pairs: &[ScanPair], sog_mps: &[f64], rot_dps: &[f64]) ->
         let mut why = Vec::new();
         if let Some((dev, med)) = sog_out[i] {
             why.push(format!(
-                "speed {:.3} m/s vs neighbours' median {:.3} m/s ({dev:.1} sigma)",
+                "speed {:.3} m/s vs {:.3} m/s from its neighbours ({dev:.1} sigma)",
                 sog_mps[i], med
             ));
         }
         if let Some((dev, med)) = rot_out[i] {
             why.push(format!(
-                "yaw rate {:.2} deg/s vs neighbours' median {:.2} deg/s ({dev:.1} sigma)",
+                "yaw rate {:.2} deg/s vs {:.2} deg/s from its neighbours ({dev:.1} sigma)",
                 rot_dps[i], med
             ));
         }
@@ -199,21 +200,56 @@ pub fn flag_implausible(pairs: &[ScanPair], sog_mps: &[f64], rot_dps: &[f64]) ->
     flagged
 }
 
-/// Per value: `Some((departure in sigmas, neighbours' median))` when it is an outlier.
+/// What the neighbours of value `i` (± [`PLAUSIBILITY_HALF_WINDOW`] steps, finite ones) say it
+/// should be. Inside the series, their median: the window is symmetric, so a steady trend
+/// cancels. Near an end a window is one-sided, and its median lags a trend by about two
+/// steps' change, which flagged exact ground truth at the start and end of a turn or an
+/// acceleration. There the window keeps its width (the 2h values nearest the end), and the
+/// value at `i` of the repeated-median line through them
+/// (Siegel 1982: per neighbour the median of its slopes to the others, then their median;
+/// one glitch among them does not move it) is taken instead. NaN without neighbours.
+fn predicted(x: &[f64], i: usize) -> f64 {
+    let (n, h) = (x.len(), PLAUSIBILITY_HALF_WINDOW);
+    let symmetric = i >= h && i + h < n;
+    // Near an end, the window keeps its width (2h neighbours), shifted inwards.
+    let (lo, hi) = if symmetric {
+        (i - h, i + h + 1)
+    } else if i < h {
+        (0, (2 * h + 1).min(n))
+    } else {
+        (n.saturating_sub(2 * h + 1), n)
+    };
+    let neighbours: Vec<(f64, f64)> = (lo..hi)
+        .filter(|&j| j != i && x[j].is_finite())
+        .map(|j| (j as f64, x[j]))
+        .collect();
+    let median = |mut v: Vec<f64>| icp_core::robust::median_in_place(&mut v).unwrap_or(f64::NAN);
+    if symmetric || neighbours.len() < 2 {
+        return median(neighbours.iter().map(|&(_, v)| v).collect());
+    }
+    let slope = median(
+        neighbours
+            .iter()
+            .map(|&(ja, va)| {
+                median(
+                    neighbours
+                        .iter()
+                        .filter(|&&(jb, _)| jb != ja)
+                        .map(|&(jb, vb)| (vb - va) / (jb - ja))
+                        .collect(),
+                )
+            })
+            .collect(),
+    );
+    let intercept = median(neighbours.iter().map(|&(j, v)| v - slope * j).collect());
+    intercept + slope * i as f64
+}
+
+/// Per value: `Some((departure in sigmas, what its neighbours predict))` when it is an
+/// outlier.
 fn outliers(x: &[f64], scale_floor: f64) -> Vec<Option<(f64, f64)>> {
     let n = x.len();
-    let medians: Vec<f64> = (0..n)
-        .map(|i| {
-            let lo = i.saturating_sub(PLAUSIBILITY_HALF_WINDOW);
-            let hi = (i + PLAUSIBILITY_HALF_WINDOW + 1).min(n);
-            let mut w: Vec<f64> = (lo..hi)
-                .filter(|&j| j != i)
-                .map(|j| x[j])
-                .filter(|v| v.is_finite())
-                .collect();
-            icp_core::robust::median_in_place(&mut w).unwrap_or(f64::NAN)
-        })
-        .collect();
+    let medians: Vec<f64> = (0..n).map(|i| predicted(x, i)).collect();
     let mut dev: Vec<f64> = x
         .iter()
         .zip(&medians)
@@ -275,5 +311,32 @@ mod tests {
         let idx: Vec<usize> = flagged.iter().map(|f| f.pair).collect();
         assert_eq!(idx, vec![7, 30], "{flagged:?}");
         assert!(flagged[0].reason.contains("speed 0.720"));
+    }
+
+    #[test]
+    fn exact_trends_at_the_ends_are_not_flagged_and_glitches_there_are() {
+        let n = 30;
+        let pairs: Vec<ScanPair> = (0..n)
+            .map(|k| ScanPair {
+                source: k,
+                reference: k + 1,
+            })
+            .collect();
+        // Exact ground truth that accelerates from the first step and turns ever faster to
+        // the last: steady trends from one end to the other. A one-sided median lags them by
+        // 0.12 m/s and 1.2 deg/s at the ends (6 and 6 sigma of the floors).
+        let sog: Vec<f64> = (0..n).map(|k| 0.5 + 0.06 * k as f64).collect();
+        let rot: Vec<f64> = (0..n).map(|k| 0.6 * k as f64).collect();
+        let flagged = flag_implausible(&pairs, &sog, &rot);
+        assert!(flagged.is_empty(), "{flagged:?}");
+        // The same with a repeated position at each end: both caught.
+        let mut glitched = sog.clone();
+        glitched[0] = 0.0;
+        glitched[n - 1] = 0.0;
+        let idx: Vec<usize> = flag_implausible(&pairs, &glitched, &rot)
+            .iter()
+            .map(|f| f.pair)
+            .collect();
+        assert_eq!(idx, vec![0, n - 1]);
     }
 }
