@@ -9,7 +9,7 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::compare::{compare, compare_md, CompareOptions};
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::{evaluate, EvalSetup, OffsetChoice, ReferenceChecks};
 use icp_core::variants::builtin;
 use icp_core::weighting::{PairView, PairWeighting};
 use indicatif::ProgressBar;
@@ -38,6 +38,7 @@ fn main() -> anyhow::Result<()> {
             Box::new(mine),
         ],
         offset: OffsetChoice::Fixed(0),
+        reference_checks: ReferenceChecks::On,
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

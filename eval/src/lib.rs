@@ -26,6 +26,7 @@ pub mod scaling;
 pub mod stats;
 pub mod sweep;
 
+pub use reference::ReferenceChecks;
 pub use report::{EvalSetup, OffsetChoice, RunReport};
 
 /// Errors of the harness.

@@ -10,7 +10,7 @@ use datasets::{marina, Dataset};
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::report::RunReport;
-use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice};
+use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, ReferenceChecks};
 use icp_core::matching::MATCHERS;
 use icp_core::variants::{
     builtin, builtin_names, builtins, section_docs, stage_families, table1, VariantSpec, TABLE1,
@@ -155,6 +155,10 @@ struct RunArgs {
     /// Reference time offset in scans, or `auto` to apply the estimated one.
     #[arg(long, default_value = "0")]
     reference_offset: OffsetChoice,
+    /// Test the reference steps for plausibility (`on`, for measured references such as GNSS)
+    /// or take every step as plausible (`off`, for ground truth).
+    #[arg(long, value_enum, default_value_t = ReferenceChecks::On)]
+    reference_checks: ReferenceChecks,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -446,7 +450,8 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
     let setup = EvalSetup::from_specs(
         &resolve_variants(&args.variants, &ds)?,
         args.reference_offset,
-    )?;
+    )?
+    .with_reference_checks(args.reference_checks);
     let report = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -456,7 +461,8 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let run = &args.run;
     let ds = load_dataset(&run.data)?;
     let variants = resolve_variants(&run.variants, &ds)?;
-    let setup = EvalSetup::from_specs(&variants, run.reference_offset)?;
+    let setup = EvalSetup::from_specs(&variants, run.reference_offset)?
+        .with_reference_checks(run.reference_checks);
     let report = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,
@@ -473,7 +479,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
             .context("--sweep")?;
         let bar = progress(run.common.quiet, "sweep");
         let result = in_pool(run.common.threads, || {
-            eval::sweep::sweep(&ds, &variants, param, &values, &bar)
+            eval::sweep::sweep(&ds, &setup, &variants, param, &values, &bar)
         })??;
         let md = eval::sweep::sweep_md(&result);
         write_md_json(&run.out, "sweep", &md, &result)?;

@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use crate::published;
+use crate::reference::ReferenceChecks;
 use crate::report::{ErrorStats, RunReport, VariantSummary};
 use crate::stats::Stats;
 use crate::EvalError;
@@ -181,6 +182,12 @@ pub fn table_md(report: &RunReport) -> String {
             o.min_score_gain,
             r.offset_from_variant.as_deref().unwrap_or("–"),
             r.offset_applied_scans
+        );
+    }
+    if r.available && r.checks == ReferenceChecks::Off {
+        let _ = writeln!(
+            out,
+            "Reference checks: off (`--reference-checks off`): every step with a reference counts as plausible.\n"
         );
     }
     let _ = writeln!(out, "## Table 1 layout, all pairs\n");

@@ -138,6 +138,18 @@ fn pearson_lagged(est: &[f64], reference: &[f64], lag: i64) -> Option<f64> {
     (sxx > 0.0 && syy > 0.0).then(|| sxy / (sxx * syy).sqrt())
 }
 
+/// Whether a run tests its reference steps for plausibility.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceChecks {
+    /// Flag implausible steps ([`flag_implausible`]) and leave them out of the "plausible"
+    /// statistics: for measured references (GNSS, SLAM-corrected poses).
+    #[default]
+    On,
+    /// Take every step with a reference as plausible: for ground truth.
+    Off,
+}
+
 /// Half-width of the rolling median window of the plausibility test, steps.
 pub const PLAUSIBILITY_HALF_WINDOW: usize = 3;
 /// A step is implausible when it departs from its neighbours' median by more than this many

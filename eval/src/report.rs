@@ -9,7 +9,7 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 use crate::bound::{self, BoundSummary, OverBound, PairBound};
-use crate::reference::{self, FlaggedStep, OffsetEstimate};
+use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
 use crate::runner::{PairRun, Runs};
 use crate::stats::{median_p95, Stats};
 
@@ -231,6 +231,9 @@ pub struct ReferenceInfo {
     pub offset_applied_scans: i64,
     /// Which variant's estimates the offset was estimated from.
     pub offset_from_variant: Option<String>,
+    /// Whether reference steps were tested for plausibility.
+    #[serde(default)]
+    pub checks: ReferenceChecks,
     /// Reference steps flagged as implausible.
     pub flagged_pairs: Vec<FlaggedStep>,
     /// Pairs whose reference step is plausible.
@@ -282,10 +285,13 @@ pub struct EvalSetup {
     pub variants: Vec<Box<dyn Registrar>>,
     /// Reference time alignment.
     pub offset: OffsetChoice,
+    /// Whether reference steps are tested for plausibility.
+    pub reference_checks: ReferenceChecks,
 }
 
 impl EvalSetup {
-    /// The chains `specs` describe, built, with the reference alignment `offset`.
+    /// The chains `specs` describe, built, with the reference alignment `offset` and the
+    /// reference checks on.
     pub fn from_specs(specs: &[VariantSpec], offset: OffsetChoice) -> Result<Self, ConfigError> {
         Ok(Self {
             variants: specs
@@ -293,7 +299,14 @@ impl EvalSetup {
                 .map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
                 .collect::<Result<_, ConfigError>>()?,
             offset,
+            reference_checks: ReferenceChecks::On,
         })
+    }
+
+    /// The same setup with the reference checks `checks`.
+    pub fn with_reference_checks(mut self, checks: ReferenceChecks) -> Self {
+        self.reference_checks = checks;
+        self
     }
 }
 
@@ -372,10 +385,9 @@ pub fn build(
         .zip(&dts)
         .map(|(m, dt)| m.map_or(f64::NAN, |m| m.dcog_deg / dt))
         .collect();
-    let flagged = if ds.reference.is_some() {
-        reference::flag_implausible(pairs, &ref_sog, &ref_rot)
-    } else {
-        Vec::new()
+    let flagged = match (&ds.reference, setup.reference_checks) {
+        (Some(_), ReferenceChecks::On) => reference::flag_implausible(pairs, &ref_sog, &ref_rot),
+        _ => Vec::new(),
     };
     let plausible: Vec<bool> = (0..pairs.len())
         .map(|i| ds.reference.is_some() && !flagged.iter().any(|f| f.pair == i))
@@ -439,6 +451,7 @@ pub fn build(
             offset_applied_scans: applied,
             offset_from_variant: setup.variants.get(pivot).map(|v| v.name().to_owned()),
             plausible_pairs: plausible.iter().filter(|&&p| p).count(),
+            checks: setup.reference_checks,
             flagged_pairs: flagged,
         },
         bound: bound::summarize(&bounds),

@@ -7,7 +7,7 @@ use icp_core::ConfigError;
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 
-use crate::report::{EvalSetup, OffsetChoice};
+use crate::report::EvalSetup;
 use crate::{evaluate, EvalError};
 
 /// The parameter a sweep varies: any `section.parameter` of a variant's configuration (e.g.
@@ -114,9 +114,11 @@ pub struct SweepResult {
     pub points: Vec<SweepPoint>,
 }
 
-/// Runs `variants` at each value of `param` over `ds`.
+/// Runs `variants` at each value of `param` over `ds`, with the reference alignment and
+/// checks of `base` (its variants are not used).
 pub fn sweep(
     ds: &Dataset,
+    base: &EvalSetup,
     variants: &[VariantSpec],
     param: SweepParam,
     values: &[f64],
@@ -128,7 +130,8 @@ pub fn sweep(
             .iter()
             .map(|v| param.apply(v, value))
             .collect::<Result<Vec<_>, _>>()?;
-        let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))?;
+        let setup = EvalSetup::from_specs(&specs, base.offset)?
+            .with_reference_checks(base.reference_checks);
         let report = evaluate(ds, &setup, progress)?;
         for v in &report.variants {
             let e = &v.plausible_reference;

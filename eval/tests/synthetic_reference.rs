@@ -2,7 +2,7 @@
 //! counter-clockwise, heading navigational), the time alignment and every pose.
 
 use datasets::synthetic::{generate, Scenario};
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::{evaluate, EvalSetup, OffsetChoice, ReferenceChecks};
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 
@@ -119,4 +119,38 @@ fn a_late_reference_is_detected_and_realigned() {
         auto.variants[0].all_pairs.pairs,
         aligned.variants[0].all_pairs.pairs - 2
     );
+}
+
+/// A repeated position in the reference is flagged with the checks on (the default), and
+/// taken as it is with `--reference-checks off`, which the report and table.md say.
+#[test]
+fn reference_checks_flag_a_repeated_position_unless_turned_off() {
+    let mut ds = generate(&Scenario {
+        n_scans: 40,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    // Scan 21's reference repeats scan 20's: a zero-speed step between moving ones.
+    let poses = ds.reference.as_mut().unwrap();
+    poses[21] = poses[20].clone();
+    let specs = [builtin("H_ICP").unwrap()];
+    let on = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0)).unwrap();
+    assert_eq!(on.reference_checks, ReferenceChecks::On);
+    let report = evaluate(&ds, &on, &ProgressBar::hidden()).unwrap();
+    let flagged: Vec<usize> = report
+        .reference
+        .flagged_pairs
+        .iter()
+        .map(|f| f.pair)
+        .collect();
+    assert!(flagged.contains(&20), "{flagged:?}");
+    assert_eq!(report.reference.plausible_pairs, 39 - flagged.len());
+    assert!(!eval::output::table_md(&report).contains("Reference checks: off"));
+
+    let off = on.with_reference_checks(ReferenceChecks::Off);
+    let report = evaluate(&ds, &off, &ProgressBar::hidden()).unwrap();
+    assert!(report.reference.flagged_pairs.is_empty());
+    assert_eq!(report.reference.plausible_pairs, 39);
+    assert_eq!(report.reference.checks, ReferenceChecks::Off);
+    assert!(eval::output::table_md(&report).contains("Reference checks: off"));
 }

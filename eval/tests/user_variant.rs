@@ -3,7 +3,7 @@
 
 use datasets::synthetic::{generate, Scenario};
 use eval::compare::{compare, CompareOptions};
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::{evaluate, EvalSetup, OffsetChoice, ReferenceChecks};
 use icp_core::variants::{builtin, h_icp};
 use icp_core::weighting::{PairView, PairWeighting};
 use indicatif::ProgressBar;
@@ -31,6 +31,7 @@ fn a_user_variant_runs_compares_and_describes_itself() {
             Box::new(mine),
         ],
         offset: OffsetChoice::Fixed(0),
+        reference_checks: ReferenceChecks::On,
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.variants[1].name, "RA_ICP");
