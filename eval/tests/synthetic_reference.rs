@@ -132,7 +132,7 @@ fn reference_checks_flag_a_repeated_position_unless_turned_off() {
     .unwrap();
     // Scan 21's reference repeats scan 20's: a zero-speed step between moving ones.
     let poses = ds.reference.as_mut().unwrap();
-    poses[21] = poses[20].clone();
+    poses[21] = poses[20];
     let specs = [builtin("H_ICP").unwrap()];
     let on = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0)).unwrap();
     assert_eq!(on.reference_checks, ReferenceChecks::On);
