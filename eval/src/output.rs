@@ -154,15 +154,41 @@ fn robust_rows(out: &mut String, report: &RunReport, pick: Pick) {
     stats_table(out, report, pick, false, &ROBUST);
 }
 
+/// A time in seconds to the millisecond, without trailing zeros (`0.2`, `2.159`, `1`).
+fn seconds(t: f64) -> String {
+    let text = format!("{t:.3}");
+    let trimmed = text.trim_end_matches('0').trim_end_matches('.');
+    if trimmed.is_empty() {
+        "0".to_owned()
+    } else {
+        trimmed.to_owned()
+    }
+}
+
 /// `table.md`: Table 1 laid out like the paper, the robust table, and for the marina data the
 /// published values beside ours.
 pub fn table_md(report: &RunReport) -> String {
     let mut out = String::new();
     let d = &report.dataset;
+    let (lo, hi) = report
+        .pairs
+        .iter()
+        .map(|r| r.dt_s)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+            (lo.min(t), hi.max(t))
+        });
+    let spread = if lo < hi && hi - lo > 1e-3 * d.dt_s {
+        format!(" (per pair {}–{} s)", seconds(lo), seconds(hi))
+    } else {
+        String::new()
+    };
     let _ = writeln!(
         out,
-        "# {} — {} pairs of {} scans, Δt = {} s\n",
-        d.name, d.pairs, d.scans, d.dt_s
+        "# {} — {} pairs of {} scans, Δt = {} s{spread}\n",
+        d.name,
+        d.pairs,
+        d.scans,
+        seconds(d.dt_s)
     );
     let _ = writeln!(
         out,
@@ -328,4 +354,24 @@ pub fn table_md(report: &RunReport) -> String {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::seconds;
+
+    #[test]
+    fn seconds_print_to_the_millisecond_without_trailing_zeros() {
+        for (t, text) in [
+            (0.10000000000000009, "0.1"),
+            (0.2, "0.2"),
+            (1.0, "1"),
+            (10.0, "10"),
+            (2.1590000000000487, "2.159"),
+            (37.0004, "37"),
+            (0.0, "0"),
+        ] {
+            assert_eq!(seconds(t), text, "{t}");
+        }
+    }
 }
