@@ -5,6 +5,7 @@
 //! Within a block rayon runs the pairs, each pair's variants one after the other in one
 //! workspace. Results are collected by index, so they do not depend on the thread count.
 
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
@@ -42,11 +43,11 @@ pub struct Runs {
 /// enough for the threads' barrier at its end to cost nothing measurable.
 const BLOCK_PAIRS: usize = 256;
 
-/// The surface estimates of some scans, per distinct parameter set.
+/// The surface estimates of the current block's scans, per distinct parameter set.
 struct PreparedScans<'a> {
     params: &'a [SurfaceParams],
-    /// `per_scan[scan][set]` (`None` for a scan outside the current block).
-    per_scan: Vec<Option<Vec<Surfaces>>>,
+    /// Scan index → one estimate per parameter set.
+    per_scan: BTreeMap<usize, Vec<Surfaces>>,
 }
 
 impl PreparedScans<'_> {
@@ -56,46 +57,46 @@ impl PreparedScans<'_> {
             .iter()
             .position(|p| p == params)
             .expect("every variant's parameters were prepared");
-        &self.per_scan[scan]
-            .as_ref()
+        &self
+            .per_scan
+            .get(&scan)
             .expect("every scan of the block was prepared")[set]
     }
 
-    /// Keeps the estimates of the scans of `block` (taking those already made from
-    /// `self`), makes the others in parallel over scans, and appends their times to `times_us`.
+    /// Keeps the estimates of the scans of `block` already made, drops the others, makes the
+    /// missing ones in parallel, and appends their times (in scan order) to `times_us`.
     fn advance(&mut self, ds: &Dataset, block: &[ScanPair], times_us: &mut Vec<f64>) {
-        let mut kept: Vec<Option<Vec<Surfaces>>> = (0..ds.scans.len()).map(|_| None).collect();
-        let mut needed = vec![false; ds.scans.len()];
-        for p in block {
-            for k in [p.source, p.reference] {
-                if kept[k].is_none() {
-                    kept[k] = self.per_scan[k].take();
-                }
-                needed[k] = kept[k].is_none();
+        let mut wanted: Vec<usize> = block.iter().flat_map(|p| [p.source, p.reference]).collect();
+        wanted.sort_unstable();
+        wanted.dedup();
+        // The previous block's other estimates are dropped before the new ones are made.
+        let mut previous = std::mem::take(&mut self.per_scan);
+        for k in &wanted {
+            if let Some(surfaces) = previous.remove(k) {
+                self.per_scan.insert(*k, surfaces);
             }
         }
-        // The previous block's other estimates are dropped before the new ones are made.
-        self.per_scan = Vec::new();
+        drop(previous);
+        let missing: Vec<usize> = wanted
+            .into_iter()
+            .filter(|k| !self.per_scan.contains_key(k))
+            .collect();
         let params = self.params;
-        let made: Vec<Option<(Vec<Surfaces>, f64)>> = ds
-            .scans
+        let made: Vec<(Vec<Surfaces>, f64)> = missing
             .par_iter()
-            .zip(&needed)
-            .map(|(scan, &needed)| {
-                needed.then(|| {
-                    let start = Instant::now();
-                    let s = params.iter().map(|p| Surfaces::estimate(scan, p)).collect();
-                    (s, start.elapsed().as_secs_f64() * 1e6)
-                })
+            .map(|&k| {
+                let start = Instant::now();
+                let s = params
+                    .iter()
+                    .map(|p| Surfaces::estimate(&ds.scans[k], p))
+                    .collect();
+                (s, start.elapsed().as_secs_f64() * 1e6)
             })
             .collect();
-        for (slot, made) in kept.iter_mut().zip(made) {
-            if let Some((surfaces, time_us)) = made {
-                *slot = Some(surfaces);
-                times_us.push(time_us);
-            }
+        for (k, (surfaces, time_us)) in missing.into_iter().zip(made) {
+            self.per_scan.insert(k, surfaces);
+            times_us.push(time_us);
         }
-        self.per_scan = kept;
     }
 }
 
@@ -127,7 +128,7 @@ fn run_blocks(
     }
     let mut prepared = PreparedScans {
         params: &params,
-        per_scan: (0..ds.scans.len()).map(|_| None).collect(),
+        per_scan: BTreeMap::new(),
     };
     let mut prepare_us = Vec::new();
     let n = registrars.len();
