@@ -244,8 +244,9 @@ impl Registrar for Icp {
         pairs.reserve(n);
         moved.clear();
         moved.extend(src_pts.iter().map(|p| init * p)); // eqs. 21, 22 at the start
-                                                        // Alg. 1 step 2, first time (the index and these pairs are the previous registration's
-                                                        // when it had the same reference points, matcher and start: the variants of a pair).
+
+        // Alg. 1 step 2, first time (the index and these pairs are the previous registration's
+        // when it had the same reference points, matcher and start: the variants of a pair).
         let index = index.first_matching(self.matcher.as_ref(), dst_pts, moved, pairs)?;
 
         let mut t_ref_src = init;

@@ -46,16 +46,18 @@ impl Metric for PointToPoint {
 
     fn residuals(&self, _set: &PairSet<'_>, pair_distance_m: &[f64], out: &mut Vec<f64>) {
         out.clear();
-        match self.max_pair_distance_m {
-            None => out.extend_from_slice(pair_distance_m),
-            Some(_) => out.extend(pair_distance_m.iter().map(|&d| {
-                if within(self.max_pair_distance_m, d) {
-                    d
-                } else {
-                    f64::NAN
-                }
-            })),
+        if self.max_pair_distance_m.is_none() {
+            // No gate: every pair is used, its residual its distance.
+            out.extend_from_slice(pair_distance_m);
+            return;
         }
+        out.extend(pair_distance_m.iter().map(|&d| {
+            if within(self.max_pair_distance_m, d) {
+                d
+            } else {
+                f64::NAN
+            }
+        }));
     }
 
     fn normal_equations(&self, set: &PairSet<'_>, weights: &[f64]) -> NormalEquations {
