@@ -143,7 +143,7 @@ pub struct PairedComparison {
     pub b: String,
     /// The error compared, e.g. `sog_err_mps`.
     pub metric: String,
-    /// Pairs where both registered and the reference is plausible.
+    /// Pairs every variant registered whose reference is plausible.
     pub n: usize,
     /// Mean of `|e_a| − |e_b|` (negative: `a` is more accurate).
     pub mean_diff: f64,
@@ -176,8 +176,9 @@ impl Default for CompareOptions {
     }
 }
 
-/// Every pair of variants of `report`, on SOG and ΔCOG error, over the pairs where both
-/// registered and the reference step is plausible.
+/// Every pair of variants of `report`, on SOG and ΔCOG error, over the pairs every variant
+/// registered (the population of every statistic of the run) whose reference step is
+/// plausible.
 pub fn compare(report: &RunReport, options: &CompareOptions) -> Vec<PairedComparison> {
     type Get = fn(&PairRecord) -> Option<f64>;
     let metrics: [(&str, Get); 2] = [
@@ -196,7 +197,7 @@ pub fn compare(report: &RunReport, options: &CompareOptions) -> Vec<PairedCompar
                 let d: Vec<f64> = ra
                     .iter()
                     .zip(&rb)
-                    .filter(|(x, _)| x.ref_plausible)
+                    .filter(|(x, _)| x.all_registered && x.ref_plausible)
                     .filter_map(|(x, y)| Some(get(x)?.abs() - get(y)?.abs()))
                     .collect();
                 let mean_diff = if d.is_empty() {
@@ -263,7 +264,7 @@ pub fn compare_md(
     );
     let _ = writeln!(
         s,
-        "Per pair, Δ = |error of A| − |error of B| over the pairs where both registered and the reference is plausible; \
+        "Per pair, Δ = |error of A| − |error of B| over the pairs every variant registered whose reference is plausible; \
          negative Δ means A is more accurate. 95 % interval: bootstrap percentile of the mean ({} resamples, seed {}). \
          p: Wilcoxon signed-rank, two-sided; p (Holm): adjusted for the {} comparisons of this table. \
          A verdict needs both the interval to exclude 0 and the adjusted p < 0.05.\n",

@@ -94,12 +94,16 @@ pub struct GateOutcome {
 pub fn metrics(v: &VariantSummary) -> Vec<(String, f64, Better)> {
     let mut out = vec![
         ("pairs_ok".to_owned(), v.pairs_ok as f64, Better::Higher),
+        ("failure_rate".to_owned(), v.failure_rate, Better::Lower),
         (
             "converged_fraction".to_owned(),
             v.converged_fraction,
             Better::Higher,
         ),
     ];
+    if let Some(rate) = v.success_rate {
+        out.push(("success_rate".to_owned(), rate, Better::Higher));
+    }
     let stats = |set: &str, name: &str, s: &Option<Stats>, out: &mut Vec<(String, f64, Better)>| {
         if let Some(s) = s {
             out.push((

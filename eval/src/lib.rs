@@ -16,6 +16,7 @@ pub mod bound;
 pub mod compare;
 pub mod gate;
 pub mod listing;
+pub mod outcome;
 pub mod output;
 pub mod plots;
 pub mod published;
@@ -24,6 +25,7 @@ pub mod report;
 pub mod runner;
 pub mod scaling;
 pub mod stats;
+pub mod status;
 pub mod sweep;
 
 pub use reference::ReferenceChecks;

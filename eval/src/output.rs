@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use crate::published;
 use crate::reference::ReferenceChecks;
-use crate::report::{ErrorStats, RunReport, VariantSummary};
+use crate::report::{ErrorStats, RunReport};
 use crate::stats::Stats;
 use crate::EvalError;
 
@@ -165,6 +165,80 @@ fn seconds(t: f64) -> String {
     }
 }
 
+/// The failures and flags of each variant, and how the flags fare against a rigid reference.
+fn failures_md(out: &mut String, report: &RunReport) {
+    let d = &report.dataset;
+    let _ = writeln!(out, "\n## Failures and flags\n");
+    let _ = writeln!(
+        out,
+        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}), no overlap (fewer than {:.0} % of the final pairs within {} m). Skipped pairs: {}.\n",
+        icp_core::quality::DEGENERATE_RATIO,
+        100.0 * icp_core::quality::MIN_OVERLAP,
+        icp_core::quality::OVERLAP_GATE_M,
+        d.skipped_pairs.len()
+    );
+    let rigid = report.variants.iter().any(|v| v.success_rate.is_some());
+    let judged = if rigid {
+        format!(
+            " success rate (≤ {} m and {}°) | flags' recall of the wrong (> {} m or {}°) | flags' precision |",
+            crate::outcome::SUCCESS_TRANS_M,
+            crate::outcome::SUCCESS_ROT_DEG,
+            crate::outcome::WRONG_TRANS_M,
+            crate::outcome::WRONG_ROT_DEG
+        )
+    } else {
+        String::new()
+    };
+    let _ = writeln!(
+        out,
+        "| method | ok | failed | no overlap | degenerate | failure rate |{judged}"
+    );
+    let _ = writeln!(
+        out,
+        "| --- | ---: | ---: | ---: | ---: | ---: |{}",
+        if rigid { " ---: | ---: | ---: |" } else { "" }
+    );
+    let percent =
+        |x: Option<f64>| cell(x.map(|x| 100.0 * x), 1) + if x.is_some() { " %" } else { "" };
+    for v in &report.variants {
+        let judged = if rigid {
+            let q = v.flag_quality;
+            format!(
+                " {} | {} | {} |",
+                percent(v.success_rate),
+                percent(q.and_then(|q| q.recall)),
+                percent(q.and_then(|q| q.precision))
+            )
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} |{judged}",
+            v.name,
+            v.pairs_ok,
+            v.failures.len(),
+            v.no_overlap_pairs.len(),
+            v.degenerate_pairs.len(),
+            percent(Some(v.failure_rate)),
+        );
+    }
+    let _ = writeln!(out);
+    for v in &report.variants {
+        for (flag, pairs) in [
+            ("degenerate", &v.degenerate_pairs),
+            ("without overlap", &v.no_overlap_pairs),
+        ] {
+            if !pairs.is_empty() {
+                let _ = writeln!(out, "- {} {flag} on pairs {pairs:?}", v.name);
+            }
+        }
+        for f in &v.failures {
+            let _ = writeln!(out, "- {} failed on pair {}: {}", v.name, f.pair, f.reason);
+        }
+    }
+}
+
 /// `table.md`: Table 1 laid out like the paper, the robust table, and for the marina data the
 /// published values beside ours.
 pub fn table_md(report: &RunReport) -> String {
@@ -216,6 +290,17 @@ pub fn table_md(report: &RunReport) -> String {
             "Reference checks: off (`--reference-checks off`): every step with a reference counts as plausible.\n"
         );
     }
+    let population = &report.population;
+    let _ = writeln!(
+        out,
+        "Every variant's statistics are taken over the same {} pairs: those every variant registered{}. A flagged registration counts as a failure of its variant (see \"Failures and flags\") and its number stays in the statistics.\n",
+        population.pairs,
+        if population.left_out.is_empty() {
+            String::new()
+        } else {
+            format!(" (pairs {:?} are left out: some variant failed on them)", population.left_out)
+        }
+    );
     let _ = writeln!(out, "## Table 1 layout, all pairs\n");
     table1_rows(&mut out, report, |v| &v.all_pairs);
     let _ = writeln!(
@@ -303,36 +388,7 @@ pub fn table_md(report: &RunReport) -> String {
             let _ = writeln!(out, "| {} | ours | {ours} |", v.name);
         }
     }
-    let failed: usize = report.variants.iter().map(|v| v.failures.len()).sum();
-    let _ = writeln!(
-        out,
-        "\nFailed registrations: {failed}. Skipped pairs: {}.",
-        d.skipped_pairs.len()
-    );
-    let count = |f: fn(&VariantSummary) -> usize| report.variants.iter().map(f).sum::<usize>();
-    let _ = writeln!(
-        out,
-        "Degenerate registrations (flagged by their conditioning, left out of the statistics): {}.",
-        count(|v| v.degenerate_pairs.len())
-    );
-    let _ = writeln!(
-        out,
-        "Registrations without overlap (flagged by their final pair distances, left out of the statistics): {}.",
-        count(|v| v.no_overlap_pairs.len())
-    );
-    for v in &report.variants {
-        for (flag, pairs) in [
-            ("degenerate", &v.degenerate_pairs),
-            ("without overlap", &v.no_overlap_pairs),
-        ] {
-            if !pairs.is_empty() {
-                let _ = writeln!(out, "- {} {flag} on pairs {pairs:?}", v.name);
-            }
-        }
-        for f in &v.failures {
-            let _ = writeln!(out, "- {} failed on pair {}: {}", v.name, f.pair, f.reason);
-        }
-    }
+    failures_md(&mut out, report);
     for s in &d.skipped_pairs {
         let _ = writeln!(
             out,

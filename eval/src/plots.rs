@@ -93,6 +93,41 @@ fn sym_limit(values: impl Iterator<Item = f64>, floor: f64) -> f64 {
     values.fold(floor, |m, v| m.max(v.abs())) * 1.05
 }
 
+/// Per variant, its `kind` errors over the run's population (the pairs every variant
+/// registered, as in every statistic): `(scan index, error, reference step plausible)`.
+fn population_errors(report: &RunReport, kind: ErrorKind) -> Vec<Vec<(f64, f64, bool)>> {
+    report
+        .variants
+        .iter()
+        .map(|v| {
+            report
+                .pairs
+                .iter()
+                .filter(|r| r.variant == v.name && r.all_registered)
+                .filter_map(|r| (kind.get)(r).map(|e| (r.source as f64, e, r.ref_plausible)))
+                .collect()
+        })
+        .collect()
+}
+
+/// The 1st and 99th percentiles of every variant's errors together, widened to a symmetric
+/// range: one scale for every panel of a figure, which a few gross failures do not flatten.
+fn shared_range(errors: &[Vec<(f64, f64, bool)>]) -> f64 {
+    let mut e: Vec<f64> = errors.iter().flatten().map(|p| p.1).collect();
+    e.sort_by(f64::total_cmp);
+    if e.is_empty() {
+        return 1.0;
+    }
+    sym_limit(
+        [
+            crate::stats::quantile_sorted(&e, 0.01),
+            crate::stats::quantile_sorted(&e, 0.99),
+        ]
+        .into_iter(),
+        1e-3,
+    )
+}
+
 struct ErrorVsScan<'a> {
     report: &'a RunReport,
     kind: ErrorKind,
@@ -108,23 +143,23 @@ impl Figure for ErrorVsScan<'_> {
             "{} against scan index — {} (○: reference step flagged implausible)",
             self.kind.label, self.report.dataset.name
         );
-        let root = root.titled(&title, (FONT, 24)).map_err(err)?;
+        let errors = population_errors(self.report, self.kind);
+        let lim = shared_range(&errors);
+        let title = format!("{title}; one scale, errors beyond ±{lim:.3} drawn at the edge");
+        let root = root.titled(&title, (FONT, 20)).map_err(err)?;
         let n = self.report.variants.len().max(1);
         let x_max = self.report.dataset.scans.max(2) as f64;
-        for (i, (panel, v)) in root
+        for (i, ((panel, v), pts)) in root
             .split_evenly((n, 1))
             .iter()
             .zip(&self.report.variants)
+            .zip(&errors)
             .enumerate()
         {
-            let pts: Vec<(f64, f64, bool)> = self
-                .report
-                .pairs
+            let pts: Vec<(f64, f64, bool)> = pts
                 .iter()
-                .filter(|r| r.variant == v.name)
-                .filter_map(|r| (self.kind.get)(r).map(|e| (r.source as f64, e, r.ref_plausible)))
+                .map(|&(x, e, plausible)| (x, e.clamp(-lim, lim), plausible))
                 .collect();
-            let lim = sym_limit(pts.iter().map(|p| p.1), 1e-3);
             let mut chart = ChartBuilder::on(panel)
                 .caption(&v.name, (FONT, 18))
                 .margin(6)
@@ -177,34 +212,18 @@ impl Figure for Histograms<'_> {
         let n = self.report.variants.len().max(1);
         let cols = if n > 1 { 2 } else { 1 };
         let rows = n.div_ceil(cols);
-        for (i, (panel, v)) in root
+        let errors = population_errors(self.report, self.kind);
+        // One range for every panel: the 1st to 99th percentile of every variant's errors.
+        let lim = shared_range(&errors);
+        let (lo, hi) = (-lim, lim);
+        for (i, ((panel, v), e)) in root
             .split_evenly((rows, cols))
             .iter()
             .zip(&self.report.variants)
+            .zip(&errors)
             .enumerate()
         {
-            let mut e: Vec<f64> = self
-                .report
-                .pairs
-                .iter()
-                .filter(|r| r.variant == v.name)
-                .filter_map(self.kind.get)
-                .collect();
-            e.sort_by(f64::total_cmp);
-            // Range: the 1st to 99th percentile, so a few gross failures do not flatten the rest.
-            let (lo, hi) = if e.is_empty() {
-                (-1.0, 1.0)
-            } else {
-                let lim = sym_limit(
-                    [
-                        crate::stats::quantile_sorted(&e, 0.01),
-                        crate::stats::quantile_sorted(&e, 0.99),
-                    ]
-                    .into_iter(),
-                    1e-3,
-                );
-                (-lim, lim)
-            };
+            let e: Vec<f64> = e.iter().map(|p| p.1).collect();
             const BINS: usize = 30;
             let w = (hi - lo) / BINS as f64;
             let mut counts = [0usize; BINS];
@@ -455,6 +474,34 @@ fn map_points(
     out
 }
 
+/// The variants whose maps are drawn: the most and the least accurate by the median |ΔCOG
+/// error| over the pairs with a plausible reference (over all pairs when none is plausible),
+/// in run order; the first two of the run when there is no reference.
+fn map_variants(report: &RunReport) -> Vec<usize> {
+    let score = |v: &crate::report::VariantSummary| {
+        v.plausible_reference
+            .dcog_err_deg
+            .or(v.all_pairs.dcog_err_deg)
+            .map(|s| s.median_abs)
+    };
+    let scored: Vec<(usize, f64)> = report
+        .variants
+        .iter()
+        .enumerate()
+        .filter_map(|(i, v)| score(v).map(|s| (i, s)))
+        .collect();
+    let best = scored.iter().min_by(|a, b| a.1.total_cmp(&b.1));
+    let worst = scored.iter().max_by(|a, b| a.1.total_cmp(&b.1));
+    match (best, worst) {
+        (Some(&(b, _)), Some(&(w, _))) => {
+            let mut chosen = vec![b.min(w), b.max(w)];
+            chosen.dedup();
+            chosen
+        }
+        _ => (0..report.variants.len().min(2)).collect(),
+    }
+}
+
 /// Draws every figure of the report into `dir`.
 pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), EvalError> {
     for kind in [SOG, DCOG] {
@@ -473,14 +520,7 @@ pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), Eva
         None
     };
     save(dir, "trajectory", &Trajectories { report, reference })?;
-    let names = ["H_ICP", "HD_ICP"];
-    let mut chosen: Vec<usize> = names
-        .iter()
-        .filter_map(|n| report.variants.iter().position(|v| v.name == *n))
-        .collect();
-    if chosen.is_empty() {
-        chosen = (0..report.variants.len().min(2)).collect();
-    }
+    let chosen = map_variants(report);
     let panels = |max_points: usize| -> Vec<_> {
         chosen
             .iter()

@@ -9,12 +9,14 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 use crate::bound::{self, BoundSummary, OverBound, PairBound};
+use crate::outcome::{self, FlagQuality};
 use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
 use crate::runner::{PairRun, Runs};
 use crate::stats::{median_p95, Stats};
+use crate::status::{PairStatus, StatusKind};
 
 /// Version of the `summary.json` layout; bump it when a field changes meaning or goes away.
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// How the reference is aligned in time with the scans.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -51,8 +53,14 @@ pub struct PairRecord {
     pub reference: usize,
     /// Time between the scans, s.
     pub dt_s: f64,
-    /// `ok`, or `failed: <reason>`.
-    pub status: String,
+    /// `ok`, `degenerate`, `no_overlap` or `failed` (see [`PairStatus`]); every status but
+    /// `ok` is a failure of the variant on the pair.
+    pub status: StatusKind,
+    /// Why the status is not `ok`, with its figures (empty when it is).
+    pub status_reason: String,
+    /// Whether every variant of the run registered the pair (flagged or not): the statistics
+    /// of every variant are taken over these pairs only, so they compare.
+    pub all_registered: bool,
     /// Whether the mean pair distance settled.
     pub converged: bool,
     /// Minimisation steps.
@@ -163,14 +171,20 @@ pub struct Timing {
 pub struct VariantSummary {
     /// Variant name.
     pub name: String,
-    /// Pairs registered.
+    /// Pairs registered and not flagged (status `ok`).
     pub pairs_ok: usize,
+    /// Fraction of the run's pairs that are a failure of this variant: not registered, or
+    /// registered and flagged (every status but `ok`).
+    #[serde(default)]
+    pub failure_rate: f64,
     /// Pairs that failed, with their reasons.
     pub failures: Vec<Failure>,
-    /// Pairs registered but flagged degenerate (left out of the statistics).
+    /// Pairs registered but flagged degenerate (failures of the variant; their numbers stay in
+    /// the statistics).
     #[serde(default)]
     pub degenerate_pairs: Vec<usize>,
-    /// Pairs registered but flagged as having no overlap (left out of the statistics).
+    /// Pairs registered but flagged as having no overlap (failures of the variant; their
+    /// numbers stay in the statistics).
     #[serde(default)]
     pub no_overlap_pairs: Vec<usize>,
     /// Fraction of the registered pairs that converged.
@@ -179,10 +193,18 @@ pub struct VariantSummary {
     pub iterations_mean: f64,
     /// Largest iteration count.
     pub iterations_max: usize,
-    /// Over every registered pair with a reference.
+    /// Over the pairs every variant registered (flagged ones included) that have a reference.
     pub all_pairs: ErrorStats,
-    /// Over the registered pairs whose reference step is plausible.
+    /// Over those of them whose reference step is plausible.
     pub plausible_reference: ErrorStats,
+    /// Fraction of the run's pairs registered within [`outcome::SUCCESS_TRANS_M`] and
+    /// [`outcome::SUCCESS_ROT_DEG`] of the reference, flagged or not (a pair not registered is
+    /// not a success), where the reference is a rigid pose.
+    #[serde(default)]
+    pub success_rate: Option<f64>,
+    /// How well the flags pick out the wrong numbers, where the reference is a rigid pose.
+    #[serde(default)]
+    pub flag_quality: Option<FlagQuality>,
     /// The chained trajectory.
     pub trajectory: TrajectoryStats,
     /// Translation and rotation RMSE as multiples of the Cramér–Rao bound over the registered
@@ -229,7 +251,7 @@ pub struct ReferenceInfo {
     pub offset_choice: OffsetChoice,
     /// The offset applied, scans.
     pub offset_applied_scans: i64,
-    /// Which variant's estimates the offset was estimated from.
+    /// Which estimates the offset was estimated from (the per-pair median of the variants').
     pub offset_from_variant: Option<String>,
     /// Whether reference steps were tested for plausibility.
     #[serde(default)]
@@ -238,6 +260,17 @@ pub struct ReferenceInfo {
     pub flagged_pairs: Vec<FlaggedStep>,
     /// Pairs whose reference step is plausible.
     pub plausible_pairs: usize,
+}
+
+/// The pairs every variant's statistics are taken over: those every variant registered
+/// (flagged or not), so that the variants are compared on the same pairs and a variant that
+/// fails more does not drop its hard pairs from its own figures only.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Population {
+    /// Pairs in it.
+    pub pairs: usize,
+    /// Pairs of the run left out of it: some variant did not register them.
+    pub left_out: Vec<usize>,
 }
 
 /// The configuration that produced the run.
@@ -263,6 +296,9 @@ pub struct RunReport {
     /// The Cramér–Rao bound over the pairs, where the dataset records true normals.
     #[serde(default)]
     pub bound: Option<BoundSummary>,
+    /// The pairs every variant's statistics are taken over.
+    #[serde(default)]
+    pub population: Population,
     /// One summary per variant, in run order.
     pub variants: Vec<VariantSummary>,
     /// Wall time per scan of its surface estimates (normals and covariances), made once and
@@ -336,7 +372,7 @@ pub fn build(
         })
         .collect();
 
-    // The reference at lag 0 and the offset estimate, from HD_ICP (or the last variant).
+    // The reference at lag 0, and the offset estimate.
     let ref_at = |lag: i64| -> Vec<Option<reference::RefMotion>> {
         pairs
             .iter()
@@ -349,15 +385,23 @@ pub fn build(
             .collect()
     };
     let ref0 = ref_at(0);
-    let pivot = setup
-        .variants
-        .iter()
-        .position(|v| v.name() == "HD_ICP")
-        .unwrap_or(setup.variants.len().saturating_sub(1));
+    // The offset is estimated from the per-pair median of the variants' estimates: no variant
+    // is singled out by name, and one variant's failures do not move it.
     let series = |f: &dyn Fn(&MovementParams) -> f64| -> Vec<f64> {
-        estimates.get(pivot).map_or(Vec::new(), |e| {
-            e.iter().map(|m| m.as_ref().map_or(f64::NAN, f)).collect()
-        })
+        (0..pairs.len())
+            .map(|i| {
+                let mut v: Vec<f64> = estimates
+                    .iter()
+                    .filter_map(|e| e[i].as_ref().map(f))
+                    .collect();
+                v.sort_by(f64::total_cmp);
+                if v.is_empty() {
+                    f64::NAN
+                } else {
+                    crate::stats::quantile_sorted(&v, 0.5)
+                }
+            })
+            .collect()
     };
     let ref_series = |f: &dyn Fn(&reference::RefMotion) -> f64| -> Vec<f64> {
         ref0.iter()
@@ -394,6 +438,17 @@ pub fn build(
         .collect();
 
     let bounds = bound::pair_bounds(ds, pairs, &ref0);
+    let statuses: Vec<Vec<PairStatus>> = runs
+        .iter()
+        .map(|rs| rs.iter().map(|r| PairStatus::of(&r.result)).collect())
+        .collect();
+    let all_registered: Vec<bool> = (0..pairs.len())
+        .map(|i| runs.iter().all(|rs| rs[i].result.is_ok()))
+        .collect();
+    let rigid = ds
+        .reference
+        .as_ref()
+        .is_some_and(|r| r.iter().all(|p| p.scan_yaw_rad.is_some()));
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();
@@ -406,6 +461,8 @@ pub fn build(
                 *pair,
                 dts[i],
                 run,
+                &statuses[vi][i],
+                all_registered[i],
                 estimates[vi][i],
                 refs[i],
                 bounds[i],
@@ -420,6 +477,7 @@ pub fn build(
             ds,
             pairs,
             trajectories.last().expect("just pushed"),
+            rigid,
         ));
         records.extend(rows);
     }
@@ -442,19 +500,23 @@ pub fn build(
         },
         reference: ReferenceInfo {
             available: ds.reference.is_some(),
-            rigid_pose: ds
-                .reference
-                .as_ref()
-                .is_some_and(|r| r.iter().all(|p| p.scan_yaw_rad.is_some())),
+            rigid_pose: rigid,
             offset_estimate,
             offset_choice: setup.offset,
             offset_applied_scans: applied,
-            offset_from_variant: setup.variants.get(pivot).map(|v| v.name().to_owned()),
+            offset_from_variant: (!setup.variants.is_empty()).then(|| {
+                let names: Vec<&str> = setup.variants.iter().map(|v| v.name()).collect();
+                format!("the per-pair median of {}", names.join(", "))
+            }),
             plausible_pairs: plausible.iter().filter(|&&p| p).count(),
             checks: setup.reference_checks,
             flagged_pairs: flagged,
         },
         bound: bound::summarize(&bounds),
+        population: Population {
+            pairs: all_registered.iter().filter(|&&a| a).count(),
+            left_out: (0..pairs.len()).filter(|&i| !all_registered[i]).collect(),
+        },
         variants: summaries,
         preparation: median_p95(&all_runs.prepare_us)
             .map(|(median_us, p95_us)| Timing { median_us, p95_us }),
@@ -470,6 +532,8 @@ fn record(
     pair: ScanPair,
     dt_s: f64,
     run: &PairRun,
+    status: &PairStatus,
+    all_registered: bool,
     est: Option<MovementParams>,
     reference: Option<reference::RefMotion>,
     bound: Option<PairBound>,
@@ -493,23 +557,9 @@ fn record(
         source: pair.source,
         reference: pair.reference,
         dt_s,
-        status: match &run.result {
-            Ok(r) if r.no_overlap() => format!(
-                "no overlap: {:.0} % of the pairs within {} m (< {:.0} %)",
-                100.0 * r.overlap,
-                icp_core::quality::OVERLAP_GATE_M,
-                100.0 * icp_core::quality::MIN_OVERLAP
-            ),
-            Ok(r) => match r.conditioning {
-                Some(c) if c.degenerate() => format!(
-                    "degenerate: conditioning ratio {:.1e} < {}",
-                    c.ratio,
-                    icp_core::quality::DEGENERATE_RATIO
-                ),
-                _ => "ok".into(),
-            },
-            Err(e) => format!("failed: {e}"),
-        },
+        status: status.kind(),
+        status_reason: status.to_string(),
+        all_registered,
         converged: reg.is_some_and(|r| r.converged()),
         iterations: reg.map_or(0, |r| r.iterations),
         n_pairs: reg.map_or(0, |r| r.n_pairs),
@@ -559,9 +609,12 @@ fn summarize(
     ds: &Dataset,
     pairs: &[ScanPair],
     traj: &[(f64, Isometry2<f64>)],
+    rigid: bool,
 ) -> VariantSummary {
-    let ok: Vec<&PairRecord> = rows.iter().filter(|r| r.status == "ok").collect();
-    let with_ref = ok.iter().copied().filter(|r| r.sog_ref_mps.is_some());
+    let ok = rows.iter().filter(|r| r.status == StatusKind::Ok).count();
+    // Every variant's figures over the same pairs: those every variant registered.
+    let common: Vec<&PairRecord> = rows.iter().filter(|r| r.all_registered).collect();
+    let with_ref = common.iter().copied().filter(|r| r.sog_ref_mps.is_some());
     let times: Vec<f64> = runs.iter().map(|r| r.time_us).collect();
     let failures: Vec<Failure> = runs
         .iter()
@@ -573,26 +626,22 @@ fn summarize(
             })
         })
         .collect();
+    let fraction = |n: usize, of: usize| if of == 0 { 0.0 } else { n as f64 / of as f64 };
     VariantSummary {
         name: name.to_owned(),
-        pairs_ok: ok.len(),
-        converged_fraction: if ok.is_empty() {
-            0.0
-        } else {
-            ok.iter().filter(|r| r.converged).count() as f64 / ok.len() as f64
-        },
-        iterations_mean: if ok.is_empty() {
-            0.0
-        } else {
-            ok.iter().map(|r| r.iterations as f64).sum::<f64>() / ok.len() as f64
-        },
-        iterations_max: ok.iter().map(|r| r.iterations).max().unwrap_or(0),
+        pairs_ok: ok,
+        failure_rate: fraction(rows.len() - ok, rows.len()),
+        converged_fraction: fraction(common.iter().filter(|r| r.converged).count(), common.len()),
+        iterations_mean: fraction(common.iter().map(|r| r.iterations).sum(), common.len()),
+        iterations_max: common.iter().map(|r| r.iterations).max().unwrap_or(0),
         all_pairs: error_stats(with_ref.clone()),
         plausible_reference: error_stats(with_ref.filter(|r| r.ref_plausible)),
-        degenerate_pairs: flagged(rows, "degenerate"),
-        no_overlap_pairs: flagged(rows, "no overlap"),
+        success_rate: outcome::success_rate(rows, rigid),
+        flag_quality: FlagQuality::of(rows),
+        degenerate_pairs: flagged(rows, StatusKind::Degenerate),
+        no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
         trajectory: trajectory_stats(ds, pairs, traj, failures.len()),
-        over_bound: OverBound::of(ok.iter().filter_map(|r| {
+        over_bound: OverBound::of(common.iter().filter_map(|r| {
             let bound = PairBound::Bounded {
                 trans_m: r.bound_trans_m?,
                 rot_deg: r.bound_rot_deg?,
@@ -604,10 +653,10 @@ fn summarize(
     }
 }
 
-/// The pairs whose status starts with `flag`.
-fn flagged(rows: &[PairRecord], flag: &str) -> Vec<usize> {
+/// The pairs whose status is `kind`.
+fn flagged(rows: &[PairRecord], kind: StatusKind) -> Vec<usize> {
     rows.iter()
-        .filter(|r| r.status.starts_with(flag))
+        .filter(|r| r.status == kind)
         .map(|r| r.pair)
         .collect()
 }

@@ -502,23 +502,29 @@ fn harness_flags_and_counts_a_pair_with_no_overlap() {
     let report = run_with_scan_2(Scan::from_cartesian(&ring).unwrap());
     let v = &report.variants[0];
     assert_eq!(v.no_overlap_pairs, vec![1, 2]);
-    let status: Vec<&str> = report.pairs.iter().map(|r| r.status.as_str()).collect();
+    let status: Vec<String> = report
+        .pairs
+        .iter()
+        .map(|r| format!("{:?} {}", r.status, r.status_reason))
+        .collect();
     assert_eq!(
         status,
         vec![
-            "ok",
-            "no overlap: 0 % of the pairs within 0.5 m (< 10 %)",
-            "no overlap: 2 % of the pairs within 0.5 m (< 10 %)",
-            "ok"
+            "Ok ",
+            "NoOverlap 0 % of the pairs within 0.5 m (< 10 %)",
+            "NoOverlap 2 % of the pairs within 0.5 m (< 10 %)",
+            "Ok "
         ]
     );
-    assert_eq!(
-        v.pairs_ok, 2,
-        "flagged pairs are left out of the statistics"
+    assert_eq!(v.pairs_ok, 2);
+    assert!(
+        (v.failure_rate - 0.5).abs() < 1e-12,
+        "flagged pairs are failures of the variant"
     );
+    assert_eq!(v.all_pairs.pairs, 4, "flagged pairs stay in the statistics");
     let table = eval::output::table_md(&report);
     assert!(
-        table.contains("Registrations without overlap (flagged by their final pair distances, left out of the statistics): 2."),
+        table.contains("| HD_ICP | 2 | 0 | 2 | 0 | 50.0 % |"),
         "{table}"
     );
 }

@@ -2,6 +2,8 @@
 //! carries on.
 
 use datasets::synthetic::{generate, Scenario};
+use eval::report::RunReport;
+use eval::status::StatusKind;
 use eval::{evaluate, EvalSetup, OffsetChoice};
 use icp_core::variants::builtin;
 use icp_core::Scan;
@@ -50,18 +52,36 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
         .collect();
     assert_eq!(rows.len(), 5, "failed pairs stay in pairs.csv");
     assert!(
-        rows[2].status.starts_with("failed: ")
+        rows[2].status == StatusKind::Failed
+            && rows[2].status_reason.contains("collinear")
             && rows[2].sog_est_mps.is_none()
             && !rows[2].converged
     );
-    assert_eq!(rows[4].status, "ok");
+    assert_eq!(rows[4].status, StatusKind::Ok);
+    assert!(rows[4].status_reason.is_empty());
+    assert!(
+        (v_rate(&report, "HD_ICP") - 0.4).abs() < 1e-12,
+        "2 of 5 pairs failed"
+    );
     let table = eval::output::table_md(&report);
-    assert!(table.contains("Failed registrations: 4."), "{table}");
+    assert!(
+        table.contains("| HD_ICP | 3 | 2 | 0 | 0 | 40.0 % | 60.0 % |"),
+        "{table}"
+    );
+}
+
+fn v_rate(report: &RunReport, name: &str) -> f64 {
+    report
+        .variants
+        .iter()
+        .find(|v| v.name == name)
+        .unwrap()
+        .failure_rate
 }
 
 /// Two scans of a straight corridor register to numbers, but the motion along the corridor is
-/// not observable: the pair is flagged degenerate by its conditioning and kept out of the
-/// statistics, not reported as a precise motion.
+/// not observable: the pair is flagged degenerate by its conditioning and counted as a failure
+/// of the variant, not reported as a precise motion; its number stays in the statistics.
 #[test]
 fn a_corridor_pair_is_flagged_degenerate() {
     let mut ds = generate(&Scenario {
@@ -94,13 +114,97 @@ fn a_corridor_pair_is_flagged_degenerate() {
     assert_eq!(v.no_overlap_pairs, vec![1, 3]);
     assert_eq!(v.pairs_ok, 1);
     let row = &report.pairs[2];
+    assert_eq!(row.status, StatusKind::Degenerate);
     assert!(
-        row.status.starts_with("degenerate: conditioning ratio"),
+        row.status_reason.starts_with("conditioning ratio"),
         "{}",
-        row.status
+        row.status_reason
     );
     assert!(row.cond_ratio.unwrap() < icp_core::quality::DEGENERATE_RATIO);
     let ratios: Vec<f64> = report.pairs.iter().map(|r| r.cond_ratio.unwrap()).collect();
     assert!(ratios[0] > 0.05 && ratios[3] > 0.05, "{ratios:?}");
-    assert_eq!(v.all_pairs.pairs, 1);
+    // Every pair was registered: the flagged ones are failures, and stay in the statistics.
+    assert_eq!(v.all_pairs.pairs, 4);
+    assert_eq!(report.population.pairs, 4);
+    assert!((v.failure_rate - 0.75).abs() < 1e-12, "{}", v.failure_rate);
+}
+
+/// HD_ICP, except that it gives up on the pair whose source scan was taken at `fail_at_s`.
+struct GivesUpOnce {
+    inner: icp_core::Icp,
+    fail_at_s: f64,
+}
+
+impl icp_core::Registrar for GivesUpOnce {
+    fn name(&self) -> &str {
+        "GIVES_UP"
+    }
+    fn spec(&self) -> icp_core::variants::VariantSpec {
+        self.inner.spec()
+    }
+    fn surface_params(&self) -> icp_core::SurfaceParams {
+        self.inner.surface_params()
+    }
+    fn register_prepared(
+        &self,
+        workspace: &mut icp_core::Workspace,
+        source: icp_core::Prepared<'_>,
+        reference: icp_core::Prepared<'_>,
+        init: nalgebra::Isometry2<f64>,
+    ) -> Result<icp_core::Registration, icp_core::IcpError> {
+        if source.scan.timestamp_s() == Some(self.fail_at_s) {
+            return Err(icp_core::IcpError::NonFiniteTransform);
+        }
+        self.inner
+            .register_prepared(workspace, source, reference, init)
+    }
+}
+
+/// Equal populations: a pair one variant did not register leaves every variant's statistics
+/// (so none is judged on pairs another could not do), and it is charged as a failure to the
+/// variant that failed only.
+#[test]
+fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_variant() {
+    let ds = generate(&Scenario {
+        n_scans: 8,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let fail_at_s = ds.scans[3].timestamp_s().unwrap();
+    let setup = EvalSetup {
+        variants: vec![
+            Box::new(builtin("HD_ICP").unwrap().build().unwrap()),
+            Box::new(GivesUpOnce {
+                inner: builtin("HD_ICP").unwrap().build().unwrap(),
+                fail_at_s,
+            }),
+        ],
+        offset: OffsetChoice::Fixed(0),
+        reference_checks: eval::ReferenceChecks::On,
+    };
+    let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
+    assert_eq!(report.population.pairs, 6);
+    assert_eq!(report.population.left_out, vec![3]);
+    let (plain, gives_up) = (&report.variants[0], &report.variants[1]);
+    assert_eq!(
+        plain.all_pairs.pairs, 6,
+        "pair 3 leaves HD_ICP's statistics too"
+    );
+    assert_eq!(gives_up.all_pairs.pairs, 6);
+    assert_eq!(
+        plain.all_pairs, gives_up.all_pairs,
+        "same method, same pairs: same figures"
+    );
+    assert_eq!(plain.failure_rate, 0.0);
+    assert!((gives_up.failure_rate - 1.0 / 7.0).abs() < 1e-12);
+    let row = |v: &str| {
+        report
+            .pairs
+            .iter()
+            .find(|r| r.variant == v && r.pair == 3)
+            .unwrap()
+    };
+    assert_eq!(row("HD_ICP").status, StatusKind::Ok);
+    assert!(!row("HD_ICP").all_registered && !row("GIVES_UP").all_registered);
+    assert_eq!(row("GIVES_UP").status, StatusKind::Failed);
 }
