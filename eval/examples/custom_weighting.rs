@@ -39,6 +39,7 @@ fn main() -> anyhow::Result<()> {
         ],
         offset: OffsetChoice::Fixed(0),
         reference_checks: ReferenceChecks::On,
+        init: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

@@ -15,6 +15,7 @@ use indicatif::ProgressBar;
 pub mod bound;
 pub mod compare;
 pub mod gate;
+pub mod init;
 pub mod listing;
 pub mod outcome;
 pub mod output;
@@ -59,6 +60,9 @@ pub enum EvalError {
     /// Two variants of a run share a name (their files would collide).
     #[error("two variants are named {0}")]
     DuplicateName(String),
+    /// The initial-guess option cannot be used on this dataset.
+    #[error(transparent)]
+    Init(#[from] init::InitError),
     /// The dataset has no pair of consecutive scans at all.
     #[error("{dataset} has {scans} scan(s): no pair of consecutive scans to register")]
     NothingToRegister { dataset: String, scans: usize },
@@ -83,8 +87,9 @@ pub fn evaluate(
             return Err(EvalError::DuplicateName(v.name().to_owned()));
         }
     }
+    setup.init.check(ds)?;
     progress.set_length((setup.variants.len() * pairs.len()) as u64);
-    let runs = runner::run_all(ds, &pairs, &setup.variants, progress);
+    let runs = runner::run_all(ds, &pairs, &setup.variants, &setup.init, progress);
     progress.finish_and_clear();
     Ok(report::build(ds, &pairs, skipped, setup, &runs))
 }

@@ -9,6 +9,7 @@ use datasets::synthetic::{self, Scenario};
 use datasets::{marina, Dataset};
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
+use eval::init::{InitChain, MODES};
 use eval::report::RunReport;
 use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, ReferenceChecks};
 use icp_core::matching::MATCHERS;
@@ -159,6 +160,9 @@ struct RunArgs {
     /// or take every step as plausible (`off`, for ground truth).
     #[arg(long, value_enum, default_value_t = ReferenceChecks::On)]
     reference_checks: ReferenceChecks,
+    /// Where each registration starts (help generated from the registered modes).
+    #[arg(long, default_value = "identity")]
+    init: InitChain,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -259,9 +263,19 @@ fn cli_command() -> clap::Command {
         "Nearest-neighbour matcher of the built-in variants: {} (all exact)",
         MATCHERS.names().join(", ")
     );
+    let init = format!(
+        "Where each registration starts: {}. A comma-separated chain tries the next mode while \
+         a registration is flagged (e.g. constant-velocity,identity)",
+        MODES
+            .iter()
+            .map(|(_, name, help)| format!("{name}: {help}"))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
     let patch = |c: clap::Command| {
         c.mut_arg("variants", |a| a.help(variants.clone()))
             .mut_arg("matcher", |a| a.help(matchers.clone()))
+            .mut_arg("init", |a| a.help(init.clone()))
     };
     <Cli as clap::CommandFactory>::command()
         .mut_subcommand("run", patch)
@@ -451,7 +465,8 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
         &resolve_variants(&args.variants, &ds)?,
         args.reference_offset,
     )?
-    .with_reference_checks(args.reference_checks);
+    .with_reference_checks(args.reference_checks)
+    .with_init(args.init);
     let report = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -462,7 +477,8 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let ds = load_dataset(&run.data)?;
     let variants = resolve_variants(&run.variants, &ds)?;
     let setup = EvalSetup::from_specs(&variants, run.reference_offset)?
-        .with_reference_checks(run.reference_checks);
+        .with_reference_checks(run.reference_checks)
+        .with_init(run.init.clone());
     let report = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,

@@ -268,6 +268,11 @@ pub fn table_md(report: &RunReport) -> String {
         out,
         "Errors are estimate minus reference. \"max\" is the signed value of largest magnitude.\n"
     );
+    let _ = writeln!(
+        out,
+        "Initial guess: {} (`--init`; a chain tries the next mode while a registration is flagged).\n",
+        report.config.init
+    );
     let r = &report.reference;
     if let Some(o) = r.offset_estimate {
         let _ = writeln!(

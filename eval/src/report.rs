@@ -9,11 +9,12 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 use crate::bound::{self, BoundSummary, OverBound, PairBound};
+use crate::init::{InitChain, InitMode};
 use crate::outcome::{self, FlagQuality};
 use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
 use crate::runner::{PairRun, Runs};
 use crate::stats::{median_p95, Stats};
-use crate::status::{PairStatus, StatusKind};
+use crate::status::StatusKind;
 
 /// Version of the `summary.json` layout; bump it when a field changes meaning or goes away.
 pub const SCHEMA_VERSION: u32 = 4;
@@ -61,6 +62,10 @@ pub struct PairRecord {
     /// Whether every variant of the run registered the pair (flagged or not): the statistics
     /// of every variant are taken over these pairs only, so they compare.
     pub all_registered: bool,
+    /// The initial-guess mode whose start gave this registration.
+    pub init: InitMode,
+    /// Registrations made along the init chain for this one (the last is kept).
+    pub init_attempts: usize,
     /// Whether the mean pair distance settled.
     pub converged: bool,
     /// Minimisation steps.
@@ -278,6 +283,9 @@ pub struct Population {
 pub struct RunConfig {
     /// Every variant's full specification, in run order.
     pub variants: Vec<VariantSpec>,
+    /// Where each registration started: the init modes tried in turn.
+    #[serde(default)]
+    pub init: InitChain,
 }
 
 /// The whole run.
@@ -323,6 +331,8 @@ pub struct EvalSetup {
     pub offset: OffsetChoice,
     /// Whether reference steps are tested for plausibility.
     pub reference_checks: ReferenceChecks,
+    /// Where each registration starts.
+    pub init: InitChain,
 }
 
 impl EvalSetup {
@@ -336,7 +346,14 @@ impl EvalSetup {
                 .collect::<Result<_, ConfigError>>()?,
             offset,
             reference_checks: ReferenceChecks::On,
+            init: InitChain::default(),
         })
+    }
+
+    /// The same setup with the initial guesses of `init`.
+    pub fn with_init(mut self, init: InitChain) -> Self {
+        self.init = init;
+        self
     }
 
     /// The same setup with the reference checks `checks`.
@@ -438,10 +455,6 @@ pub fn build(
         .collect();
 
     let bounds = bound::pair_bounds(ds, pairs, &ref0);
-    let statuses: Vec<Vec<PairStatus>> = runs
-        .iter()
-        .map(|rs| rs.iter().map(|r| PairStatus::of(&r.result)).collect())
-        .collect();
     let all_registered: Vec<bool> = (0..pairs.len())
         .map(|i| runs.iter().all(|rs| rs[i].result.is_ok()))
         .collect();
@@ -461,7 +474,6 @@ pub fn build(
                 *pair,
                 dts[i],
                 run,
-                &statuses[vi][i],
                 all_registered[i],
                 estimates[vi][i],
                 refs[i],
@@ -497,6 +509,7 @@ pub fn build(
         },
         config: RunConfig {
             variants: setup.variants.iter().map(|v| v.spec()).collect(),
+            init: setup.init.clone(),
         },
         reference: ReferenceInfo {
             available: ds.reference.is_some(),
@@ -532,7 +545,6 @@ fn record(
     pair: ScanPair,
     dt_s: f64,
     run: &PairRun,
-    status: &PairStatus,
     all_registered: bool,
     est: Option<MovementParams>,
     reference: Option<reference::RefMotion>,
@@ -557,9 +569,11 @@ fn record(
         source: pair.source,
         reference: pair.reference,
         dt_s,
-        status: status.kind(),
-        status_reason: status.to_string(),
+        status: run.status.kind(),
+        status_reason: run.status.to_string(),
         all_registered,
+        init: run.init,
+        init_attempts: run.attempts,
         converged: reg.is_some_and(|r| r.converged()),
         iterations: reg.map_or(0, |r| r.iterations),
         n_pairs: reg.map_or(0, |r| r.n_pairs),

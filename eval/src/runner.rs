@@ -11,19 +11,27 @@ use std::time::Instant;
 use datasets::{Dataset, ScanPair};
 use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
 use indicatif::ProgressBar;
-use nalgebra::Isometry2;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
+
+use crate::init::{self, InitChain, InitMode, Previous};
+use crate::status::PairStatus;
 
 /// One registration's outcome and its wall time.
 #[derive(Clone, Debug)]
 pub struct PairRun {
     /// The registration, or why it failed.
     pub result: Result<Registration, IcpError>,
-    /// Wall time of the registration, its scans' surface estimates aside, microseconds (not
-    /// reproducible: kept apart).
+    /// The verdict on it.
+    pub status: PairStatus,
+    /// The initial-guess mode whose start gave the result kept.
+    pub init: InitMode,
+    /// Registrations made along the init chain (the result kept is the last of them).
+    pub attempts: usize,
+    /// Wall time of the registrations made along the init chain, their scans' surface
+    /// estimates aside, microseconds (not reproducible: kept apart).
     pub time_us: f64,
 }
 
@@ -100,14 +108,62 @@ impl PreparedScans<'_> {
     }
 }
 
-/// Registers every pair with every registrar, from the identity (as the paper does).
+/// Registers every pair with every registrar, each starting as `chain` says (checked against
+/// `ds` by the caller).
 pub fn run_all(
     ds: &Dataset,
     pairs: &[ScanPair],
     registrars: &[Box<dyn Registrar>],
+    chain: &InitChain,
     progress: &ProgressBar,
 ) -> Runs {
-    run_blocks(ds, pairs, registrars, progress, BLOCK_PAIRS)
+    run_blocks(ds, pairs, registrars, chain, progress, BLOCK_PAIRS)
+}
+
+/// What the registrations of a block need besides the registrar and the pair.
+struct BlockJob<'a> {
+    ds: &'a Dataset,
+    prepared: &'a PreparedScans<'a>,
+    chain: &'a InitChain,
+}
+
+impl BlockJob<'_> {
+    /// Registers `pair` with `reg` from each start of the chain in turn, until a result is not
+    /// flagged (else the last one is kept); `previous` is the variant's previous result.
+    fn run(
+        &self,
+        reg: &dyn Registrar,
+        workspace: &mut Workspace,
+        pair: ScanPair,
+        previous: Option<&Previous>,
+    ) -> PairRun {
+        let params = reg.surface_params();
+        let prepared_scan =
+            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+        let (source, reference) = (prepared_scan(pair.source), prepared_scan(pair.reference));
+        let dt_s = self.ds.pair_dt_s(pair);
+        let mut time_us = 0.0;
+        let mut kept = None;
+        for (attempt, &mode) in self.chain.modes().iter().enumerate() {
+            let (start, used) = init::start(mode, self.ds, pair, dt_s, previous);
+            let clock = Instant::now();
+            let result = reg.register_prepared(workspace, source, reference, start);
+            time_us += clock.elapsed().as_secs_f64() * 1e6;
+            let status = PairStatus::of(&result);
+            let done = !status.is_failure();
+            kept = Some(PairRun {
+                result,
+                status,
+                init: used,
+                attempts: attempt + 1,
+                time_us,
+            });
+            if done {
+                break;
+            }
+        }
+        kept.expect("a chain has at least one mode")
+    }
 }
 
 /// [`run_all`] with blocks of `block_pairs` pairs.
@@ -115,10 +171,10 @@ fn run_blocks(
     ds: &Dataset,
     pairs: &[ScanPair],
     registrars: &[Box<dyn Registrar>],
+    chain: &InitChain,
     progress: &ProgressBar,
     block_pairs: usize,
 ) -> Runs {
-    let init = Isometry2::identity();
     let mut params: Vec<SurfaceParams> = Vec::new();
     for r in registrars {
         let p = r.surface_params();
@@ -132,16 +188,53 @@ fn run_blocks(
     };
     let mut prepare_us = Vec::new();
     let n = registrars.len();
-    let mut per_pair: Vec<Vec<PairRun>> = Vec::with_capacity(pairs.len());
+    let mut per_variant: Vec<Vec<PairRun>> = registrars
+        .iter()
+        .map(|_| Vec::with_capacity(pairs.len()))
+        .collect();
     for (b, block) in pairs.chunks(block_pairs).enumerate() {
         prepared.advance(ds, block, &mut prepare_us);
         let prepared = &prepared;
+        let job = BlockJob {
+            ds,
+            prepared,
+            chain,
+        };
+        if chain.sequential() {
+            // A start depends on the same variant's previous result: each variant runs its
+            // pairs in order, the variants in parallel.
+            let runs: Vec<Vec<PairRun>> = registrars
+                .par_iter()
+                .zip(per_variant.par_iter())
+                .map(|(reg, done)| {
+                    let mut workspace = Workspace::default();
+                    // Carried over from the block before.
+                    let mut previous = done
+                        .last()
+                        .map(|run| previous_of(ds, pairs[done.len() - 1], run));
+                    block
+                        .iter()
+                        .map(|&pair| {
+                            let run =
+                                job.run(reg.as_ref(), &mut workspace, pair, previous.as_ref());
+                            progress.inc(1);
+                            previous = Some(previous_of(ds, pair, &run));
+                            run
+                        })
+                        .collect()
+                })
+                .collect();
+            for (variant, block_runs) in per_variant.iter_mut().zip(runs) {
+                variant.extend(block_runs);
+            }
+            continue;
+        }
         let runs: Vec<Vec<PairRun>> = block
             .par_iter()
             .enumerate()
             // One workspace per rayon job: buffers are reused across the pairs a thread runs
             // (results never depend on what a workspace held before).
-            .map_init(Workspace::default, |workspace, (i, pair)| {
+            .map_init(Workspace::default, |workspace, (i, &pair)| {
                 let position = b * block_pairs + i;
                 // A workspace hands a variant the reference index and first matching of the one
                 // before it on the same pair (same selection, matcher and start): the first of
@@ -152,37 +245,37 @@ fn run_blocks(
                 let mut runs: Vec<(usize, PairRun)> = order
                     .into_iter()
                     .map(|v| {
-                        let reg = &registrars[v];
-                        let params = reg.surface_params();
-                        let prepared_scan =
-                            |k: usize| Prepared::new(&ds.scans[k], prepared.get(&params, k));
-                        let (source, reference) =
-                            (prepared_scan(pair.source), prepared_scan(pair.reference));
-                        let start = Instant::now();
-                        let result = reg.register_prepared(workspace, source, reference, init);
-                        let time_us = start.elapsed().as_secs_f64() * 1e6;
+                        let run = job.run(registrars[v].as_ref(), workspace, pair, None);
                         progress.inc(1);
-                        (v, PairRun { result, time_us })
+                        (v, run)
                     })
                     .collect();
                 runs.sort_by_key(|(v, _)| *v);
                 runs.into_iter().map(|(_, run)| run).collect()
             })
             .collect();
-        per_pair.extend(runs);
-    }
-    let mut per_variant: Vec<Vec<PairRun>> = registrars
-        .iter()
-        .map(|_| Vec::with_capacity(pairs.len()))
-        .collect();
-    for runs in per_pair {
-        for (variant, run) in per_variant.iter_mut().zip(runs) {
-            variant.push(run);
+        for pair_runs in runs {
+            for (variant, run) in per_variant.iter_mut().zip(pair_runs) {
+                variant.push(run);
+            }
         }
     }
     Runs {
         per_variant,
         prepare_us,
+    }
+}
+
+/// What a constant-velocity start of the next pair takes from `run` of `pair`: its estimate
+/// unless it was flagged.
+fn previous_of(ds: &Dataset, pair: ScanPair, run: &PairRun) -> Previous {
+    Previous {
+        pair,
+        dt_s: ds.pair_dt_s(pair),
+        t_ref_src: match (&run.result, &run.status) {
+            (Ok(reg), PairStatus::Ok) => Some(reg.t_ref_src),
+            _ => None,
+        },
     }
 }
 
@@ -221,10 +314,11 @@ mod tests {
                 .collect()
         };
         let progress = ProgressBar::hidden();
-        let whole = run_blocks(&ds, &pairs, &registrars, &progress, BLOCK_PAIRS);
+        let chain = InitChain::default();
+        let whole = run_blocks(&ds, &pairs, &registrars, &chain, &progress, BLOCK_PAIRS);
         assert_eq!(whole.per_variant[0].len(), pairs.len());
         for block_pairs in [1, 2, 5] {
-            let blocks = run_blocks(&ds, &pairs, &registrars, &progress, block_pairs);
+            let blocks = run_blocks(&ds, &pairs, &registrars, &chain, &progress, block_pairs);
             assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
             // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
             // holds only the scans it shares with the block before (scan 10).

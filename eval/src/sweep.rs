@@ -131,7 +131,8 @@ pub fn sweep(
             .map(|v| param.apply(v, value))
             .collect::<Result<Vec<_>, _>>()?;
         let setup = EvalSetup::from_specs(&specs, base.offset)?
-            .with_reference_checks(base.reference_checks);
+            .with_reference_checks(base.reference_checks)
+            .with_init(base.init.clone());
         let report = evaluate(ds, &setup, progress)?;
         for v in &report.variants {
             let e = &v.plausible_reference;

@@ -181,6 +181,7 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
         ],
         offset: OffsetChoice::Fixed(0),
         reference_checks: eval::ReferenceChecks::On,
+        init: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.population.pairs, 6);
