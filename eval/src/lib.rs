@@ -6,7 +6,7 @@
 //! file from it.
 #![forbid(unsafe_code)]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use datasets::{Dataset, DatasetError};
 use icp_core::{ConfigError, IcpError};
@@ -18,6 +18,7 @@ pub mod gate;
 pub mod init;
 pub mod listing;
 pub mod outcome;
+pub mod outdir;
 pub mod output;
 pub mod plots;
 pub mod published;
@@ -29,6 +30,7 @@ pub mod stats;
 pub mod status;
 pub mod sweep;
 
+pub use outdir::OutputDir;
 pub use reference::ReferenceChecks;
 pub use report::{EvalSetup, OffsetChoice, RunReport};
 
@@ -42,6 +44,9 @@ pub enum EvalError {
         #[source]
         source: std::io::Error,
     },
+    /// An output directory cannot be used.
+    #[error("output directory {dir}: {why}")]
+    OutputDir { dir: PathBuf, why: String },
     /// A report could not be serialized.
     #[error("serialization failed: {0}")]
     Serialize(String),
@@ -95,35 +100,28 @@ pub fn evaluate(
 }
 
 /// Writes `summary.json`, `pairs.csv`, `table.md`, `config.json`, one TUM trajectory per
-/// variant and (unless `plots` is false) the figures into `dir`.
+/// variant and (unless `plots` is false) the figures into `out`.
 pub fn write_outputs(
-    dir: &Path,
+    out: &mut OutputDir,
     ds: &Dataset,
     report: &RunReport,
     plots: bool,
 ) -> Result<(), EvalError> {
-    std::fs::create_dir_all(dir).map_err(|source| EvalError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    output::write_atomic(
-        &dir.join("summary.json"),
-        output::summary_json(report)?.as_bytes(),
-    )?;
-    output::write_atomic(&dir.join("pairs.csv"), &output::pairs_csv(report)?)?;
-    output::write_atomic(&dir.join("table.md"), output::table_md(report).as_bytes())?;
+    out.write("summary.json", output::summary_json(report)?.as_bytes())?;
+    out.write("pairs.csv", &output::pairs_csv(report)?)?;
+    out.write("table.md", output::table_md(report).as_bytes())?;
     let config = serde_json::to_string_pretty(&report.config)
         .map_err(|e| EvalError::Serialize(e.to_string()))?
         + "\n";
-    output::write_atomic(&dir.join("config.json"), config.as_bytes())?;
+    out.write("config.json", config.as_bytes())?;
     for (i, v) in report.variants.iter().enumerate() {
-        output::write_atomic(
-            &dir.join(format!("trajectory_{}.tum", v.name)),
+        out.write(
+            &format!("trajectory_{}.tum", v.name),
             output::tum(report, i).as_bytes(),
         )?;
     }
     if plots {
-        plots::write_all(dir, ds, report)?;
+        plots::write_all(out, ds, report)?;
     }
     Ok(())
 }

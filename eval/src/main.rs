@@ -11,7 +11,7 @@ use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
 use eval::report::RunReport;
-use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, ReferenceChecks};
+use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, OutputDir, ReferenceChecks};
 use icp_core::matching::MATCHERS;
 use icp_core::variants::{
     builtin, builtin_names, builtins, section_docs, stage_families, table1, VariantSpec, TABLE1,
@@ -66,9 +66,12 @@ struct ScalingArgs {
     /// Seconds spent timing each size (at least 3 registrations each).
     #[arg(long, default_value_t = 1.0)]
     budget_s: f64,
-    /// Output directory.
-    #[arg(long, default_value = "reports/performance")]
+    /// Output directory (outside the committed reports).
+    #[arg(long, default_value = "results/performance")]
     out: PathBuf,
+    /// Write into a directory that holds files icp-eval did not list.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Args)]
@@ -82,6 +85,10 @@ struct Common {
     /// Skip the figures.
     #[arg(long)]
     no_plots: bool,
+    /// Write into an output directory that holds files icp-eval did not list in its
+    /// manifest.json (they are left alone); without it such a directory is refused.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Args)]
@@ -89,8 +96,9 @@ struct ReproduceArgs {
     /// Directory holding the marina files (or a `marina/` folder); else $ICP_DATA_DIR, then ./datasets.
     #[arg(long)]
     data_dir: Option<PathBuf>,
-    /// Output directory.
-    #[arg(long, default_value = "reports/reproduction")]
+    /// Output directory (outside the committed reports; `scripts/update-reproduction.sh`
+    /// regenerates those).
+    #[arg(long, default_value = "results/reproduction")]
     out: PathBuf,
     #[command(flatten)]
     common: Common,
@@ -336,15 +344,18 @@ fn evaluate_in_pool(ds: &Dataset, setup: &EvalSetup, common: &Common) -> Result<
     Ok(in_pool(common.threads, || evaluate(ds, setup, &bar))??)
 }
 
+/// Runs and writes the reports into `out`; returns the report and the directory, for files
+/// a command adds.
 fn evaluate_and_write(
     ds: &Dataset,
     setup: &EvalSetup,
     out: &Path,
     common: &Common,
-) -> Result<RunReport> {
+) -> Result<(RunReport, OutputDir)> {
+    let mut dir = OutputDir::open(out, common.force).context("opening the output directory")?;
     let report = evaluate_in_pool(ds, setup, common)?;
-    write_outputs(out, ds, &report, !common.no_plots).context("writing the reports")?;
-    Ok(report)
+    write_outputs(&mut dir, ds, &report, !common.no_plots).context("writing the reports")?;
+    Ok((report, dir))
 }
 
 fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
@@ -354,7 +365,7 @@ fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
             let ds = marina::load(&dir, &marina::MarinaOptions::default())
                 .with_context(|| format!("loading the marina data from {}", dir.display()))?;
             let out = args.out.join("marina");
-            let report = evaluate_and_write(&ds, &setup, &out, &args.common)?;
+            let (report, _) = evaluate_and_write(&ds, &setup, &out, &args.common)?;
             println!("{}", eval::output::table_md(&report));
             println!("(marina reports in {})\n", out.display());
         }
@@ -368,7 +379,7 @@ fn reproduce(args: ReproduceArgs) -> Result<ExitCode> {
     let ds = synthetic::generate(&Scenario::paper())
         .context("generating the synthetic `paper` scenario")?;
     let out = args.out.join("synthetic-paper");
-    let report = evaluate_and_write(&ds, &setup, &out, &args.common)?;
+    let (report, _) = evaluate_and_write(&ds, &setup, &out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     println!("(synthetic reports in {})", out.display());
     Ok(ExitCode::SUCCESS)
@@ -467,7 +478,7 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
     )?
     .with_reference_checks(args.reference_checks)
     .with_init(args.init);
-    let report = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
+    let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
 }
@@ -479,7 +490,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let setup = EvalSetup::from_specs(&variants, run.reference_offset)?
         .with_reference_checks(run.reference_checks)
         .with_init(run.init.clone());
-    let report = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
+    let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,
         seed: args.bootstrap_seed,
@@ -487,7 +498,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let rows = compare(&report, &options);
     let md = compare_md(&report, &rows, &options);
     let json = serde_json::json!({ "options": options, "comparisons": rows });
-    write_md_json(&run.out, "compare", &md, &json)?;
+    write_md_json(&mut dir, "compare", &md, &json)?;
     println!("{md}");
     if let Some(text) = &args.sweep {
         let (param, values) = eval::sweep::parse_sweep(text)
@@ -498,9 +509,9 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
             eval::sweep::sweep(&ds, &setup, &variants, param, &values, &bar)
         })??;
         let md = eval::sweep::sweep_md(&result);
-        write_md_json(&run.out, "sweep", &md, &result)?;
+        write_md_json(&mut dir, "sweep", &md, &result)?;
         if !run.common.no_plots {
-            eval::plots::write_sweep(&run.out, &result)?;
+            eval::plots::write_sweep(&mut dir, &result)?;
         }
         println!("{md}");
     }
@@ -572,10 +583,15 @@ fn synth(args: SynthArgs) -> Result<ExitCode> {
 }
 
 /// Writes `<stem>.md` and `<stem>.json` (pretty, newline-terminated) into `dir`, atomically.
-fn write_md_json(dir: &Path, stem: &str, md: &str, value: &impl serde::Serialize) -> Result<()> {
-    eval::output::write_atomic(&dir.join(format!("{stem}.md")), md.as_bytes())?;
+fn write_md_json(
+    dir: &mut OutputDir,
+    stem: &str,
+    md: &str,
+    value: &impl serde::Serialize,
+) -> Result<()> {
+    dir.write(&format!("{stem}.md"), md.as_bytes())?;
     let json = serde_json::to_string_pretty(value)? + "\n";
-    eval::output::write_atomic(&dir.join(format!("{stem}.json")), json.as_bytes())?;
+    dir.write(&format!("{stem}.json"), json.as_bytes())?;
     Ok(())
 }
 
@@ -588,11 +604,10 @@ fn scaling(args: ScalingArgs) -> Result<ExitCode> {
         )
     })?;
     let result = eval::scaling::measure(&spec, &args.beams, args.budget_s)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut dir = OutputDir::open(&args.out, args.force)?;
     let md = eval::scaling::scaling_md(&result);
-    write_md_json(&args.out, "scaling", &md, &result)?;
-    eval::plots::write_scaling(&args.out, &result)?;
+    write_md_json(&mut dir, "scaling", &md, &result)?;
+    eval::plots::write_scaling(&mut dir, &result)?;
     print!("{md}");
     Ok(ExitCode::SUCCESS)
 }

@@ -2,16 +2,15 @@
 //! SOG and ΔCOG error against scan index (Figs. 12, 14), their histograms (Figs. 13, 15), the
 //! chained trajectories, and the maps made by placing every scan on them (Fig. 16).
 
-use std::path::Path;
-
 use datasets::Dataset;
 use nalgebra::Point2;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::output::{tmp_path, write_atomic};
+use crate::output::tmp_path;
 use crate::report::{PairRecord, RunReport};
 use crate::EvalError;
+use crate::OutputDir;
 
 const FONT: &str = "sans-serif";
 const COLORS: [RGBColor; 6] = [
@@ -33,14 +32,14 @@ trait Figure {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String>;
 }
 
-/// Renders `fig` to `<dir>/<stem>.png` and `<dir>/<stem>.svg`, atomically.
-fn save(dir: &Path, stem: &str, fig: &impl Figure) -> Result<(), EvalError> {
-    save_pair(dir, stem, fig, fig)
+/// Renders `fig` to `<stem>.png` and `<stem>.svg` in `out`, atomically.
+fn save(out: &mut OutputDir, stem: &str, fig: &impl Figure) -> Result<(), EvalError> {
+    save_pair(out, stem, fig, fig)
 }
 
 /// Like [`save`], with a lighter figure for the SVG (one element per point adds up).
 fn save_pair(
-    dir: &Path,
+    out: &mut OutputDir,
     stem: &str,
     fig: &impl Figure,
     svg_fig: &impl Figure,
@@ -49,7 +48,7 @@ fn save_pair(
         figure: stem.to_owned(),
         what,
     };
-    let png = dir.join(format!("{stem}.png"));
+    let png = out.file(&format!("{stem}.png"))?;
     let tmp = tmp_path(&png).with_extension("tmp.png");
     {
         let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
@@ -66,7 +65,7 @@ fn save_pair(
         svg_fig.draw(&root).map_err(plot_err)?;
         root.present().map_err(|e| plot_err(e.to_string()))?;
     }
-    write_atomic(&dir.join(format!("{stem}.svg")), svg.as_bytes())
+    out.write(&format!("{stem}.svg"), svg.as_bytes())
 }
 
 /// Which error a figure shows.
@@ -503,11 +502,11 @@ fn map_variants(report: &RunReport) -> Vec<usize> {
 }
 
 /// Draws every figure of the report into `dir`.
-pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), EvalError> {
+pub fn write_all(out: &mut OutputDir, ds: &Dataset, report: &RunReport) -> Result<(), EvalError> {
     for kind in [SOG, DCOG] {
-        save(dir, kind.stem, &ErrorVsScan { report, kind })?;
+        save(out, kind.stem, &ErrorVsScan { report, kind })?;
         save(
-            dir,
+            out,
             &format!("{}_hist", kind.stem),
             &Histograms { report, kind },
         )?;
@@ -519,7 +518,7 @@ pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), Eva
     } else {
         None
     };
-    save(dir, "trajectory", &Trajectories { report, reference })?;
+    save(out, "trajectory", &Trajectories { report, reference })?;
     let chosen = map_variants(report);
     let panels = |max_points: usize| -> Vec<_> {
         chosen
@@ -545,7 +544,7 @@ pub fn write_all(dir: &Path, ds: &Dataset, report: &RunReport) -> Result<(), Eva
         report,
         panels: panels(MAP_MAX_POINTS_SVG),
     };
-    save_pair(dir, "map", &png, &svg)
+    save_pair(out, "map", &png, &svg)
 }
 
 /// A labelled line through `pts` with a dot on each point.
@@ -682,8 +681,11 @@ impl Figure for SweepFigure<'_> {
 }
 
 /// Draws `sweep.png` and `sweep.svg`.
-pub fn write_sweep(dir: &Path, result: &crate::sweep::SweepResult) -> Result<(), EvalError> {
-    save(dir, "sweep", &SweepFigure { result })
+pub fn write_sweep(
+    out: &mut OutputDir,
+    result: &crate::sweep::SweepResult,
+) -> Result<(), EvalError> {
+    save(out, "sweep", &SweepFigure { result })
 }
 
 struct ScalingFigure<'a> {
@@ -793,6 +795,9 @@ impl Figure for ScalingFigure<'_> {
 }
 
 /// Draws `scaling.png` and `scaling.svg`.
-pub fn write_scaling(dir: &Path, result: &crate::scaling::ScalingResult) -> Result<(), EvalError> {
-    save(dir, "scaling", &ScalingFigure { result })
+pub fn write_scaling(
+    out: &mut OutputDir,
+    result: &crate::scaling::ScalingResult,
+) -> Result<(), EvalError> {
+    save(out, "scaling", &ScalingFigure { result })
 }

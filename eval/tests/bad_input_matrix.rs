@@ -552,7 +552,7 @@ fn unwritable_output_directory() {
     assert_eq!(
         err.trim_end(),
         format!(
-            "error: writing the reports: {}: Not a directory (os error 20)",
+            "error: opening the output directory: {}: Not a directory (os error 20)",
             out.display()
         )
     );

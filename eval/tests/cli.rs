@@ -383,7 +383,7 @@ fn list_names_the_variants_and_bad_configs_exit_2() {
         "--variants",
         "HD_ICP,HD_ICP",
         "--out",
-        dir.to_str().unwrap(),
+        dir.join("out").to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("two variants are named HD_ICP"));
