@@ -12,6 +12,7 @@ use datasets::{Dataset, DatasetError};
 use icp_core::{ConfigError, IcpError};
 use indicatif::ProgressBar;
 
+pub mod basin;
 pub mod bound;
 pub mod compare;
 pub mod gate;
@@ -65,6 +66,16 @@ pub enum EvalError {
     /// Two variants of a run share a name (their files would collide).
     #[error("two variants are named {0}")]
     DuplicateName(String),
+    /// An option outside its domain.
+    #[error("invalid option {name} = {value}: {why}")]
+    BadOption {
+        name: &'static str,
+        value: f64,
+        why: &'static str,
+    },
+    /// A command that needs a reference that is a rigid 2D pose of the scanner.
+    #[error("{what} needs a reference that is a rigid 2D pose of the scanner; {dataset} has none")]
+    NeedsRigidReference { what: &'static str, dataset: String },
     /// The initial-guess option cannot be used on this dataset.
     #[error(transparent)]
     Init(#[from] init::InitError),

@@ -7,6 +7,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use datasets::synthetic::{self, Scenario};
 use datasets::{marina, Dataset};
+use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
@@ -42,6 +43,10 @@ enum Command {
     /// Compare a run's summary.json with a baseline: exit 0 if nothing got worse beyond the
     /// tolerances, 1 with a table of what regressed, 2 on unusable input.
     Gate(GateArgs),
+    /// The convergence-basin protocol (Pomerleau et al. 2013): each pair registered from
+    /// seeded starts around its true motion; success against the start's offset (basin.csv,
+    /// .json, .md, .png, .svg). Needs a rigid reference.
+    Basin(BasinArgs),
     /// Generate a synthetic harbour dataset and write it in our CSV format.
     Synth(SynthArgs),
     /// Time one variant on synthetic scan pairs of growing size: time per registration,
@@ -195,6 +200,34 @@ struct CompareArgs {
 }
 
 #[derive(Args)]
+struct BasinArgs {
+    #[command(flatten)]
+    data: DataArgs,
+    #[command(flatten)]
+    variants: VariantArgs,
+    /// Starts per pair.
+    #[arg(long, default_value_t = BasinOptions::default().perturbations)]
+    perturbations: usize,
+    /// Largest distance of a start's translation from the true one, m.
+    #[arg(long, default_value_t = BasinOptions::default().max_translation_m)]
+    max_translation_m: f64,
+    /// Largest rotation of a start from the true one, degrees.
+    #[arg(long, default_value_t = BasinOptions::default().max_rotation_deg)]
+    max_rotation_deg: f64,
+    /// Seed of the starts (the same for every variant).
+    #[arg(long, default_value_t = 0)]
+    perturbation_seed: u64,
+    /// Run every n-th pair only.
+    #[arg(long, default_value_t = 1)]
+    pair_stride: usize,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    common: Common,
+}
+
+#[derive(Args)]
 struct GateArgs {
     /// The committed baseline summary.json.
     #[arg(long)]
@@ -288,6 +321,10 @@ fn cli_command() -> clap::Command {
     <Cli as clap::CommandFactory>::command()
         .mut_subcommand("run", patch)
         .mut_subcommand("compare", patch)
+        .mut_subcommand("basin", |c| {
+            c.mut_arg("variants", |a| a.help(variants.clone()))
+                .mut_arg("matcher", |a| a.help(matchers.clone()))
+        })
 }
 
 /// The error and its causes, each said once: our errors already print their cause.
@@ -307,6 +344,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Run(args) => run_one(args),
         Command::Compare(args) => compare_cmd(args),
         Command::Gate(args) => gate_cmd(args),
+        Command::Basin(args) => basin_cmd(args),
         Command::Synth(args) => synth(args),
         Command::Scaling(args) => scaling(args),
         Command::List => list(),
@@ -515,6 +553,38 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         }
         println!("{md}");
     }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn basin_cmd(args: BasinArgs) -> Result<ExitCode> {
+    let ds = load_dataset(&args.data)?;
+    let setup = EvalSetup::from_specs(
+        &resolve_variants(&args.variants, &ds)?,
+        OffsetChoice::Fixed(0),
+    )?;
+    let options = BasinOptions {
+        perturbations: args.perturbations,
+        max_translation_m: args.max_translation_m,
+        max_rotation_deg: args.max_rotation_deg,
+        seed: args.perturbation_seed,
+        pair_stride: args.pair_stride,
+        ..BasinOptions::default()
+    };
+    options.validate()?;
+    let mut dir =
+        OutputDir::open(&args.out, args.common.force).context("opening the output directory")?;
+    let bar = progress(args.common.quiet, "basin");
+    let report = in_pool(args.common.threads, || {
+        eval::basin::run(&ds, &setup.variants, &options, &bar)
+    })??;
+    bar.finish_and_clear();
+    dir.write("basin.csv", &eval::basin::basin_csv(&report)?)?;
+    let md = eval::basin::basin_md(&report);
+    write_md_json(&mut dir, "basin", &md, &report)?;
+    if !args.common.no_plots {
+        eval::plots::write_basin(&mut dir, &report)?;
+    }
+    println!("{md}");
     Ok(ExitCode::SUCCESS)
 }
 

@@ -688,6 +688,122 @@ pub fn write_sweep(
     save(out, "sweep", &SweepFigure { result })
 }
 
+struct BasinFigure<'a> {
+    report: &'a crate::basin::BasinReport,
+}
+
+impl Figure for BasinFigure<'_> {
+    fn size(&self) -> (u32, u32) {
+        (1500, 520)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        use crate::basin::{BasinBin, VariantBasin};
+        root.fill(&WHITE).map_err(err)?;
+        let r = self.report;
+        let title = format!(
+            "Convergence basin — {} ({} pairs × {} starts; success: within {} m and {}°)",
+            r.dataset, r.pairs, r.options.perturbations, r.success_trans_m, r.success_rot_deg
+        );
+        let root = root.titled(&title, (FONT, 22)).map_err(err)?;
+        let panels = root.split_evenly((1, 3));
+        type Bins = fn(&VariantBasin) -> &Vec<BasinBin>;
+        let curves: [(&str, f64, Bins); 2] = [
+            (
+                "start's translation offset (m)",
+                r.options.max_translation_m,
+                |v| &v.by_translation_m,
+            ),
+            (
+                "start's |rotation offset| (°)",
+                r.options.max_rotation_deg,
+                |v| &v.by_rotation_deg,
+            ),
+        ];
+        for (panel, (label, max, bins)) in panels.iter().zip(curves) {
+            let mut chart = ChartBuilder::on(panel)
+                .margin(10)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0.0..max.max(1e-9), 0.0..105.0)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(label)
+                .y_desc("success (%)")
+                .draw()
+                .map_err(err)?;
+            for (i, v) in r.variants.iter().enumerate() {
+                let pts: Vec<(f64, f64)> = bins(v)
+                    .iter()
+                    .filter_map(|b| b.success_rate.map(|s| (0.5 * (b.lo + b.hi), 100.0 * s)))
+                    .collect();
+                dotted_line(&mut chart, &pts, COLORS[i % COLORS.len()], &v.name)?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .draw()
+                .map_err(err)?;
+        }
+        // Cumulative translation error of the registered results, up to 4× the threshold.
+        let x_max = 4.0 * r.success_trans_m;
+        let mut chart = ChartBuilder::on(&panels[2])
+            .margin(10)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..x_max, 0.0..105.0)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("translation error (m)")
+            .y_desc("starts with a smaller error (%)")
+            .draw()
+            .map_err(err)?;
+        for (i, v) in r.variants.iter().enumerate() {
+            let mut e: Vec<f64> = r
+                .rows
+                .iter()
+                .filter(|row| row.variant == v.name)
+                .map(|row| row.trans_err_m.unwrap_or(f64::INFINITY))
+                .collect();
+            e.sort_by(f64::total_cmp);
+            let n = e.len().max(1) as f64;
+            let color = COLORS[i % COLORS.len()];
+            let pts: Vec<(f64, f64)> = (0..=100)
+                .map(|k| {
+                    let x = x_max * k as f64 / 100.0;
+                    (x, 100.0 * e.partition_point(|&t| t <= x) as f64 / n)
+                })
+                .collect();
+            chart
+                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .map_err(err)?
+                .label(v.name.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    }
+}
+
+/// Draws `basin.png` and `basin.svg`.
+pub fn write_basin(
+    out: &mut OutputDir,
+    report: &crate::basin::BasinReport,
+) -> Result<(), EvalError> {
+    save(out, "basin", &BasinFigure { report })
+}
+
 struct ScalingFigure<'a> {
     result: &'a crate::scaling::ScalingResult,
 }
