@@ -165,6 +165,36 @@ fn seconds(t: f64) -> String {
     }
 }
 
+/// HDG: per pair its error is the ΔCOG error (HDG = reference HDG₀ + ΔCOG); dead-reckoned
+/// through the ΔCOG estimates from the first reference heading, its error accumulates.
+fn heading_md(out: &mut String, report: &RunReport) {
+    if !report
+        .variants
+        .iter()
+        .any(|v| v.trajectory.heading_rms_error_deg.is_some())
+    {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "\n## Heading (HDG)\n\nPer pair, HDG = the reference heading at scan k + the estimated ΔCOG (eq. 24), so its error is the ΔCOG error above. Dead-reckoned from the first reference heading through every ΔCOG estimate (no compass), the error accumulates:\n"
+    );
+    let _ = writeln!(
+        out,
+        "| method | dead-reckoned HDG RMS error (°) | at the last pair (°) |"
+    );
+    let _ = writeln!(out, "| --- | ---: | ---: |");
+    for v in &report.variants {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} |",
+            v.name,
+            cell(v.trajectory.heading_rms_error_deg, 2),
+            cell(v.trajectory.heading_end_error_deg, 2)
+        );
+    }
+}
+
 /// The failures and flags of each variant, and how the flags fare against a rigid reference.
 fn failures_md(out: &mut String, report: &RunReport) {
     let d = &report.dataset;
@@ -393,6 +423,7 @@ pub fn table_md(report: &RunReport) -> String {
             let _ = writeln!(out, "| {} | ours | {ours} |", v.name);
         }
     }
+    heading_md(&mut out, report);
     failures_md(&mut out, report);
     for s in &d.skipped_pairs {
         let _ = writeln!(

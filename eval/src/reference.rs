@@ -2,7 +2,7 @@
 //! steps that are implausible given their neighbours.
 
 use datasets::{Dataset, ScanPair};
-use icp_core::motion::wrap_deg;
+use icp_core::motion::{wrap_360, wrap_deg};
 use icp_core::BearingSense;
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
@@ -14,9 +14,11 @@ pub struct RefMotion {
     pub sog_mps: f64,
     /// Reference heading change, degrees, clockwise positive.
     pub dcog_deg: f64,
-    /// Reference heading at the source scan, degrees (navigational when the reference heading
-    /// grows clockwise).
+    /// Reference heading at the source scan, degrees in [0, 360), growing clockwise (the
+    /// navigational sense; the dataset's heading negated when it grows counter-clockwise).
     pub hdg0_deg: f64,
+    /// The same at the reference scan.
+    pub hdg1_deg: f64,
     /// The true `t_ref_src`, when the reference is a rigid 2D pose of the scanner.
     pub t_ref_src: Option<Isometry2<f64>>,
 }
@@ -38,7 +40,8 @@ pub fn motion(ds: &Dataset, a: usize, b: usize, dt_s: f64) -> Option<RefMotion> 
     Some(RefMotion {
         sog_mps: (q.x_m - p.x_m).hypot(q.y_m - p.y_m) / dt_s,
         dcog_deg: sign * dh,
-        hdg0_deg: p.heading_rad.to_degrees(),
+        hdg0_deg: wrap_360(sign * p.heading_rad.to_degrees()),
+        hdg1_deg: wrap_360(sign * q.heading_rad.to_degrees()),
         t_ref_src,
     })
 }

@@ -96,6 +96,15 @@ pub struct PairRecord {
     pub dcog_ref_deg: Option<f64>,
     /// ΔCOG error, degrees, wrapped to (−180, 180].
     pub dcog_err_deg: Option<f64>,
+    /// Estimated heading after the step, HDG₀ + ΔCOG with HDG₀ the reference heading at the
+    /// source scan, degrees in [0, 360), clockwise (its error is the ΔCOG error).
+    pub hdg_est_deg: Option<f64>,
+    /// Reference heading at the reference scan, degrees, clockwise.
+    pub hdg_ref_deg: Option<f64>,
+    /// Error of the heading dead-reckoned from the first pair's reference heading through this
+    /// variant's ΔCOG estimates (a pair not registered adds 0), degrees, wrapped: how heading
+    /// error accumulates without a compass.
+    pub hdg_chained_err_deg: Option<f64>,
     /// Estimated rate of turn, °/s.
     pub rot_est_dps: Option<f64>,
     /// Reference rate of turn, °/s.
@@ -151,6 +160,12 @@ pub struct TrajectoryStats {
     pub drift_m_per_100m: Option<f64>,
     /// Why the drift is not given, when it is not.
     pub note: Option<String>,
+    /// RMS of the dead-reckoned heading error over the pairs (`hdg_chained_err_deg`), degrees.
+    #[serde(default)]
+    pub heading_rms_error_deg: Option<f64>,
+    /// The dead-reckoned heading error at the last pair, degrees.
+    #[serde(default)]
+    pub heading_end_error_deg: Option<f64>,
 }
 
 /// A failed pair.
@@ -467,6 +482,7 @@ pub fn build(
     let mut trajectories = Vec::new();
     for (vi, variant) in setup.variants.iter().enumerate() {
         let mut rows = Vec::with_capacity(pairs.len());
+        let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
                 variant.name(),
@@ -480,6 +496,7 @@ pub fn build(
                 bounds[i],
                 plausible[i],
             ));
+            rows[i].hdg_chained_err_deg = chained[i];
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
         summaries.push(summarize(
@@ -589,6 +606,9 @@ fn record(
         dcog_est_deg: est.map(|m| m.dcog_deg),
         dcog_ref_deg: reference.map(|r| r.dcog_deg),
         dcog_err_deg: both(&|m, r| wrap_deg(m.dcog_deg - r.dcog_deg)),
+        hdg_est_deg: est.filter(|_| reference.is_some()).map(|m| m.hdg_deg),
+        hdg_ref_deg: reference.map(|r| r.hdg1_deg),
+        hdg_chained_err_deg: None,
         rot_est_dps: est.map(|m| m.rot_dps),
         rot_ref_dps: reference.map(|r| r.dcog_deg / dt_s),
         cond_ratio: reg.and_then(|r| r.conditioning).map(|c| c.ratio),
@@ -654,7 +674,15 @@ fn summarize(
         flag_quality: FlagQuality::of(rows),
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
-        trajectory: trajectory_stats(ds, pairs, traj, failures.len()),
+        trajectory: TrajectoryStats {
+            heading_rms_error_deg: {
+                let e: Vec<f64> = rows.iter().filter_map(|r| r.hdg_chained_err_deg).collect();
+                (!e.is_empty())
+                    .then(|| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt())
+            },
+            heading_end_error_deg: rows.last().and_then(|r| r.hdg_chained_err_deg),
+            ..trajectory_stats(ds, pairs, traj, failures.len())
+        },
         over_bound: OverBound::of(common.iter().filter_map(|r| {
             let bound = PairBound::Bounded {
                 trans_m: r.bound_trans_m?,
@@ -672,6 +700,35 @@ fn flagged(rows: &[PairRecord], kind: StatusKind) -> Vec<usize> {
     rows.iter()
         .filter(|r| r.status == kind)
         .map(|r| r.pair)
+        .collect()
+}
+
+/// Per pair, the error of the heading dead-reckoned through the ΔCOG `estimates` (a pair
+/// without one adds 0) from the reference heading at the first pair's source scan, against
+/// the reference heading at each pair's reference scan; restarted from the reference where the
+/// pairs are not consecutive. `None` without a reference.
+fn chained_heading_errors(
+    pairs: &[ScanPair],
+    estimates: &[Option<MovementParams>],
+    refs: &[Option<reference::RefMotion>],
+) -> Vec<Option<f64>> {
+    let mut heading: Option<f64> = None;
+    let mut previous: Option<ScanPair> = None;
+    pairs
+        .iter()
+        .zip(estimates.iter().zip(refs))
+        .map(|(pair, (est, reference))| {
+            let reference = reference.as_ref()?;
+            let consecutive = previous.is_some_and(|p| p.reference == pair.source);
+            previous = Some(*pair);
+            let start = match heading {
+                Some(h) if consecutive => h,
+                _ => reference.hdg0_deg,
+            };
+            let h = start + est.map_or(0.0, |m| m.dcog_deg);
+            heading = Some(h);
+            Some(wrap_deg(h - reference.hdg1_deg))
+        })
         .collect()
 }
 
@@ -745,5 +802,56 @@ fn trajectory_stats(
         end_point_error_m,
         drift_m_per_100m,
         note,
+        heading_rms_error_deg: None,
+        heading_end_error_deg: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dead_reckoned_heading_by_hand() {
+        let pair = |k: usize| ScanPair {
+            source: k,
+            reference: k + 1,
+        };
+        let reference = |h0: f64, h1: f64| {
+            Some(reference::RefMotion {
+                sog_mps: 1.0,
+                dcog_deg: wrap_deg(h1 - h0),
+                hdg0_deg: h0,
+                hdg1_deg: h1,
+                t_ref_src: None,
+            })
+        };
+        let est = |dcog_deg: f64| {
+            Some(MovementParams {
+                sog_mps: 1.0,
+                dcog_deg,
+                rot_dps: dcog_deg,
+                hdg_deg: 0.0,
+            })
+        };
+        // Truth turns 10° per step from 355°; the estimates say 11°, nothing (failed), 10°;
+        // then a gap (pair 5→6) restarts from the reference.
+        let pairs = [pair(0), pair(1), pair(2), pair(5)];
+        let refs = [
+            reference(355.0, 5.0),
+            reference(5.0, 15.0),
+            reference(15.0, 25.0),
+            reference(45.0, 55.0),
+        ];
+        let estimates = [est(11.0), None, est(10.0), est(12.0)];
+        let e = chained_heading_errors(&pairs, &estimates, &refs);
+        let expected = [1.0, -9.0, -9.0, 2.0];
+        for (got, want) in e.iter().zip(expected) {
+            assert!((got.unwrap() - want).abs() < 1e-9, "{e:?}");
+        }
+        assert_eq!(
+            chained_heading_errors(&pairs[..1], &[est(1.0)], &[None]),
+            vec![None]
+        );
     }
 }
