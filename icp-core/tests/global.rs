@@ -352,13 +352,6 @@ fn invalid_parameters_are_named() {
         ),
         (
             GlobalParams {
-                join_gap_m: f64::INFINITY,
-                ..d()
-            },
-            "join_gap_m",
-        ),
-        (
-            GlobalParams {
                 window_m: -0.1,
                 ..d()
             },

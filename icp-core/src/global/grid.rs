@@ -103,7 +103,6 @@ impl LikelihoodGrid {
         reference: &Scan,
         resolution_m: f64,
         sigma_m: f64,
-        join_gap_m: f64,
         depth: u32,
         max_cells: u64,
     ) -> Result<Self, IcpError> {
@@ -145,28 +144,27 @@ impl LikelihoodGrid {
         }
         let (nx, ny) = (fx as usize, fy as usize);
         let mut data = vec![0u16; nx * ny];
-        let raster = Raster {
-            origin,
-            resolution_m,
-            inv_two_var: 1.0 / (2.0 * sigma_m * sigma_m),
-            reach_m,
-            nx,
-            ny,
+        let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
+        let reach_sq = reach_m * reach_m;
+        // The cells whose centre may be within reach of coordinate c along one axis.
+        let span = |c: f64, n: usize| {
+            let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
+            let last = ((c + reach_m) / resolution_m).floor().min(n as f64 - 1.0) as usize;
+            first..=last
         };
-        let join_sq = join_gap_m * join_gap_m;
-        // Each return joined to the next when they are close, or alone when it is joined to
-        // neither neighbour.
-        let mut joined_to_previous = false;
-        for (k, a) in points.iter().enumerate() {
-            let next = points
-                .get(k + 1)
-                .filter(|b| (*b - a).norm_squared() <= join_sq);
-            match next {
-                Some(b) => raster.segment(&mut data, a, b),
-                None if !joined_to_previous => raster.segment(&mut data, a, a),
-                None => {}
+        for p in &points {
+            let (px, py) = (p.x - origin.x, p.y - origin.y);
+            for j in span(py, ny) {
+                let dy = (j as f64 + 0.5) * resolution_m - py;
+                let row = &mut data[j * nx..(j + 1) * nx];
+                for i in span(px, nx) {
+                    let dx = (i as f64 + 0.5) * resolution_m - px;
+                    let d_sq = dx * dx + dy * dy;
+                    if d_sq <= reach_sq {
+                        row[i] = row[i].max(quantise((-d_sq * inv_two_var).exp()));
+                    }
+                }
             }
-            joined_to_previous = next.is_some();
         }
         let mut levels = vec![Level {
             data,
@@ -244,51 +242,6 @@ impl LikelihoodGrid {
             .zip(weights)
             .map(|(&[i, j], &w)| u64::from(lv.value([i + dx, j + dy])) * u64::from(w))
             .sum()
-    }
-}
-
-/// How the likelihood is drawn into level 0.
-struct Raster {
-    origin: Point2<f64>,
-    resolution_m: f64,
-    inv_two_var: f64,
-    reach_m: f64,
-    nx: usize,
-    ny: usize,
-}
-
-impl Raster {
-    /// Raises every cell whose centre is within reach of the segment `a`–`b` (a point when
-    /// `a == b`) to the likelihood of its distance to the segment.
-    fn segment(&self, data: &mut [u16], a: &Point2<f64>, b: &Point2<f64>) {
-        let res = self.resolution_m;
-        let (a, b) = (a - self.origin, b - self.origin);
-        let ab = b - a;
-        let len_sq = ab.norm_squared();
-        let reach_sq = self.reach_m * self.reach_m;
-        // The cells whose centre may be within reach along one axis.
-        let span = |lo: f64, hi: f64, n: usize| {
-            let first = ((lo - self.reach_m) / res).floor().max(0.0) as usize;
-            let last = ((hi + self.reach_m) / res).floor().min(n as f64 - 1.0) as usize;
-            first..=last
-        };
-        for j in span(a.y.min(b.y), a.y.max(b.y), self.ny) {
-            let cy = (j as f64 + 0.5) * res;
-            let row = &mut data[j * self.nx..(j + 1) * self.nx];
-            for i in span(a.x.min(b.x), a.x.max(b.x), self.nx) {
-                let c = nalgebra::Vector2::new((i as f64 + 0.5) * res, cy);
-                let t = if len_sq > 0.0 {
-                    ((c - a).dot(&ab) / len_sq).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let d_sq = (c - a - ab * t).norm_squared();
-                if d_sq <= reach_sq {
-                    let v = quantise((-d_sq * self.inv_two_var).exp());
-                    row[i] = row[i].max(v);
-                }
-            }
-        }
     }
 }
 

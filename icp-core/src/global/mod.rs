@@ -94,9 +94,6 @@ pub struct GlobalParams {
     pub resolution_m: f64,
     /// Standard deviation of the likelihood around each reference point, metres.
     pub sigma_m: f64,
-    /// Consecutive reference returns closer than this are joined by a segment, and the
-    /// likelihood follows the segment rather than the two points (0: points only), metres.
-    pub join_gap_m: f64,
     /// Half-width of the square translation window around the centre, metres.
     pub window_m: f64,
     /// How the rotation candidates are chosen: `full` or `histogram`.
@@ -121,7 +118,6 @@ impl Default for GlobalParams {
         Self {
             resolution_m: 0.1,
             sigma_m: 0.1,
-            join_gap_m: 0.5,
             window_m: 2.0,
             rotation: RotationMode::Full,
             max_rotation_deg: 180.0,
@@ -148,7 +144,6 @@ impl GlobalParams {
     pub fn validate(&self) -> Result<(), ParamError> {
         ParamError::check_positive("resolution_m", self.resolution_m)?;
         ParamError::check_positive("sigma_m", self.sigma_m)?;
-        ParamError::check_non_negative("join_gap_m", self.join_gap_m)?;
         ParamError::check_non_negative("window_m", self.window_m)?;
         if self.window_m / self.resolution_m > MAX_WINDOW_CELLS {
             return Err(ParamError::new(
@@ -288,7 +283,6 @@ impl GlobalMatcher {
             reference.scan,
             params.resolution_m,
             params.sigma_m,
-            params.join_gap_m,
             params.depth(),
             params.max_grid_cells,
         )?;

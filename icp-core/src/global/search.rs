@@ -230,13 +230,12 @@ mod tests {
             depth in 0u32..6,
             resolution_m in 0.05..0.3f64,
             sigma_m in 0.02..0.4f64,
-            join_gap_m in 0.0..1.0f64,
             centre in (-0.5..0.5f64, -0.5..0.5f64),
         ) {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
             let grid =
-                LikelihoodGrid::new(&scan, resolution_m, sigma_m, join_gap_m, depth, u64::MAX)
+                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, u64::MAX)
                     .unwrap();
             let points: Vec<Point2<f64>> =
                 source.iter().map(|&(x, y, _)| Point2::new(x, y)).collect();
@@ -276,7 +275,7 @@ mod tests {
         };
         let pts: Vec<[f64; 2]> = (0..240).map(wall).collect();
         let scan = Scan::from_cartesian(&pts).unwrap();
-        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 0.5, 6, u64::MAX).unwrap();
+        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, u64::MAX).unwrap();
         let points: Vec<Point2<f64>> = scan
             .returns()
             .iter()
