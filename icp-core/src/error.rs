@@ -90,6 +90,17 @@ pub enum IcpError {
     /// The minimiser produced a non-finite transform.
     #[error("the minimiser produced a non-finite transform")]
     NonFiniteTransform,
+    /// A global search (see [`crate::global`]) that would need more memory or time than its
+    /// limit: too many grid cells, or too many rotation candidates.
+    #[error("the global search needs {count} {what}, more than the limit of {max}")]
+    GlobalSearchTooLarge {
+        /// What there are too many of.
+        what: &'static str,
+        /// How many there would be.
+        count: f64,
+        /// The limit.
+        max: f64,
+    },
     /// The stages or their parameters are invalid.
     #[error(transparent)]
     Config(#[from] ConfigError),

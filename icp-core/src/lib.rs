@@ -7,8 +7,9 @@
 //! eqs. 15–20, and Gauss-Newton), [`termination`] (step 6) and the loop itself in [`icp`]
 //! (eqs. 14, 21, 22). Beyond the paper, [`metric`] makes the error of eq. 14 a stage
 //! (point-to-point, point-to-line, plane-to-plane generalised ICP), [`surface`] estimates the
-//! normal and covariance behind every return once per scan, and [`quality`] checks a solution's
-//! conditioning and overlap. Every stage kind is registered once, with typed parameters, in
+//! normal and covariance behind every return once per scan, [`quality`] checks a solution's
+//! conditioning and overlap, and [`global`] finds an initial guess for large motions by
+//! correlative scan matching. Every stage kind is registered once, with typed parameters, in
 //! [`registry`]'s model; [`variants`] holds the built-in variants as configuration data, and
 //! [`motion`] turns a registration into SOG, ΔCOG, ROT and HDG (eqs. 23–25).
 //!
@@ -47,6 +48,7 @@
 pub mod bound;
 mod cells;
 pub mod error;
+pub mod global;
 pub mod icp;
 pub mod matching;
 pub mod metric;

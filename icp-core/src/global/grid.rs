@@ -1,0 +1,291 @@
+//! The likelihood grid of a reference scan and its pyramid of max-pooled grids.
+//!
+//! Level 0 is Olson's (2009) rasterised cost table: each cell of side `resolution_m` holds
+//! `max_p exp(−d²/(2σ²))`, `d` the distance from the cell's centre to reference point `p`,
+//! truncated to 0 beyond [`TRUNCATION_SIGMAS`] σ and quantised to `u16` (65535 = 1). Level `h`
+//! is Hess et al.'s (2016) precomputation grid: its cell `(i, j)` holds the maximum of the
+//! level-0 cells `[i, i + 2^h) × [j, j + 2^h)`, so a source scan's sum over level `h` at a
+//! translation bounds its level-0 sum at every translation of the `2^h × 2^h` block starting
+//! there. Cells outside the grid are 0 at every level.
+//!
+//! Sums are integers, so the bounds of the branch-and-bound search are exact comparisons.
+
+use nalgebra::{Isometry2, Point2};
+
+use crate::error::ScanRole;
+use crate::scan::Return;
+use crate::{IcpError, Scan};
+
+/// The likelihood is cut to 0 beyond this many σ from every reference point
+/// (`exp(−4.5) ≈ 0.011`).
+pub const TRUNCATION_SIGMAS: f64 = 3.0;
+
+/// The quantised likelihood of 1.
+pub const FULL_SCALE: u16 = u16::MAX;
+
+/// Cell coordinates are clamped to ±this: far outside any grid (whose sides are bounded by the
+/// cell limit) even after a window offset, and far from `i32` overflow.
+const FAR_CELL: f64 = (1 << 28) as f64;
+
+/// One level of the pyramid: `data[(j + offset) * nx + i + offset]` is the cell `(i, j)` for
+/// `i` in `−offset..nx − offset` (and likewise `j`).
+#[derive(Clone, Debug, PartialEq)]
+struct Level {
+    data: Vec<u16>,
+    nx: u32,
+    ny: u32,
+    offset: i32,
+}
+
+impl Level {
+    /// The value of cell `(i, j)`, 0 outside the level.
+    #[inline]
+    fn value(&self, [i, j]: [i32; 2]) -> u16 {
+        // A negative index wraps to a large u32 and fails the test: one compare per axis.
+        let (a, b) = ((i + self.offset) as u32, (j + self.offset) as u32);
+        if a < self.nx && b < self.ny {
+            self.data[b as usize * self.nx as usize + a as usize]
+        } else {
+            0
+        }
+    }
+
+    /// The level above `self` (`self` pools blocks of `s` cells, the result `2s`):
+    /// `max` of the cells at `(i, j)`, `(i + s, j)`, `(i, j + s)` and `(i + s, j + s)`, pooled
+    /// along x then along y.
+    fn pooled(&self, s: u32) -> Level {
+        let (nx, ny, s) = (self.nx as usize, self.ny as usize, s as usize);
+        let (mx, my) = (nx + s, ny + s);
+        let mut along_x = vec![0u16; mx * ny];
+        for (row, out) in self.data.chunks_exact(nx).zip(along_x.chunks_exact_mut(mx)) {
+            max_shifted(out, row, s);
+        }
+        // Along y the rows are shifted by s rows: the same operation on the whole array.
+        let mut data = vec![0u16; mx * my];
+        max_shifted(&mut data, &along_x, s * mx);
+        Level {
+            data,
+            nx: mx as u32,
+            ny: my as u32,
+            offset: self.offset + s as i32,
+        }
+    }
+}
+
+/// `out[a] = max(v[a − s], v[a])` for `a` in `0..v.len() + s`, a missing `v` being 0: in array
+/// indices, the pooled cell `a` of a level offset by `s` more than `v`'s.
+fn max_shifted(out: &mut [u16], v: &[u16], s: usize) {
+    out[..v.len()].copy_from_slice(v);
+    for (o, &x) in out[s..].iter_mut().zip(v) {
+        *o = (*o).max(x);
+    }
+}
+
+/// The likelihood grid of one reference scan with its max-pooled pyramid (see the module doc).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LikelihoodGrid {
+    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself.
+    levels: Vec<Level>,
+    /// The lower-left corner of cell `(0, 0)`, reference frame, metres.
+    origin: Point2<f64>,
+    resolution_m: f64,
+    sigma_m: f64,
+}
+
+impl LikelihoodGrid {
+    /// The grid of `reference`'s points with cells of `resolution_m`, the likelihood's
+    /// `sigma_m` and `depth` max-pooled levels above level 0 (parameters assumed valid:
+    /// see [`super::GlobalParams::validate`]).
+    ///
+    /// `Err(TooFewPoints)` for a scan without returns, `Err(GlobalSearchTooLarge)` when the levels
+    /// together would hold more than `max_cells` cells.
+    pub(crate) fn new(
+        reference: &Scan,
+        resolution_m: f64,
+        sigma_m: f64,
+        depth: u32,
+        max_cells: u64,
+    ) -> Result<Self, IcpError> {
+        let points: Vec<Point2<f64>> = reference
+            .returns()
+            .iter()
+            .map(|r| r.point)
+            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .collect();
+        if points.is_empty() {
+            return Err(IcpError::TooFewPoints {
+                role: ScanRole::Reference,
+                got: 0,
+                need: 1,
+            });
+        }
+        let reach_m = TRUNCATION_SIGMAS * sigma_m;
+        let (mut lo, mut hi) = (points[0], points[0]);
+        for p in &points {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let origin = Point2::new(lo.x - reach_m, lo.y - reach_m);
+        let cells = |extent_m: f64| ((extent_m + 2.0 * reach_m) / resolution_m).floor() + 1.0;
+        let (fx, fy) = (cells(hi.x - lo.x), cells(hi.y - lo.y));
+        // Every level holds (n + 2^h − 1) cells a side.
+        let total: f64 = (0..=depth)
+            .map(|h| {
+                let pad = ((1u64 << h) - 1) as f64;
+                (fx + pad) * (fy + pad)
+            })
+            .sum();
+        if total > max_cells as f64 {
+            return Err(IcpError::GlobalSearchTooLarge {
+                what: "grid cells (max_grid_cells)",
+                count: total,
+                max: max_cells as f64,
+            });
+        }
+        let (nx, ny) = (fx as usize, fy as usize);
+        let mut data = vec![0u16; nx * ny];
+        let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
+        let reach_sq = reach_m * reach_m;
+        // The cells whose centre may be within reach of coordinate c along one axis.
+        let span = |c: f64, n: usize| {
+            let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
+            let last = ((c + reach_m) / resolution_m).floor().min(n as f64 - 1.0) as usize;
+            first..=last
+        };
+        for p in &points {
+            let (px, py) = (p.x - origin.x, p.y - origin.y);
+            for j in span(py, ny) {
+                let dy = (j as f64 + 0.5) * resolution_m - py;
+                let row = &mut data[j * nx..(j + 1) * nx];
+                for i in span(px, nx) {
+                    let dx = (i as f64 + 0.5) * resolution_m - px;
+                    let d_sq = dx * dx + dy * dy;
+                    if d_sq <= reach_sq {
+                        row[i] = row[i].max(quantise((-d_sq * inv_two_var).exp()));
+                    }
+                }
+            }
+        }
+        let mut levels = vec![Level {
+            data,
+            nx: nx as u32,
+            ny: ny as u32,
+            offset: 0,
+        }];
+        for h in 1..=depth {
+            let next = levels[h as usize - 1].pooled(1 << (h - 1));
+            levels.push(next);
+        }
+        Ok(Self {
+            levels,
+            origin,
+            resolution_m,
+            sigma_m,
+        })
+    }
+
+    /// Side of a cell, metres.
+    pub fn resolution_m(&self) -> f64 {
+        self.resolution_m
+    }
+
+    /// The likelihood's σ, metres.
+    pub fn sigma_m(&self) -> f64 {
+        self.sigma_m
+    }
+
+    /// Max-pooled levels above level 0.
+    pub fn depth(&self) -> u32 {
+        self.levels.len() as u32 - 1
+    }
+
+    /// Cells along x and y of level 0.
+    pub fn size(&self) -> (usize, usize) {
+        (self.levels[0].nx as usize, self.levels[0].ny as usize)
+    }
+
+    /// The cell holding `q` (reference frame): integer cell coordinates, clamped far outside
+    /// the grid when `q` is far away or not finite.
+    #[inline]
+    pub(crate) fn cell_of(&self, q: &Point2<f64>) -> [i32; 2] {
+        let inv_res = 1.0 / self.resolution_m;
+        let c = |v: f64, o: f64| {
+            let f = ((v - o) * inv_res).floor();
+            // NaN fails both comparisons and goes far away too.
+            if (-FAR_CELL..=FAR_CELL).contains(&f) {
+                f as i32
+            } else {
+                FAR_CELL as i32
+            }
+        };
+        [c(q.x, self.origin.x), c(q.y, self.origin.y)]
+    }
+
+    /// The quantised value at level `level` of cell `cell` (0 outside the grid).
+    #[inline]
+    pub(crate) fn value(&self, level: u32, cell: [i32; 2]) -> u16 {
+        self.levels[level as usize].value(cell)
+    }
+
+    /// The sum over `cells`, each shifted by `offset`, at level `level`.
+    #[inline]
+    pub(crate) fn sum(
+        &self,
+        level: u32,
+        cells: &[[i32; 2]],
+        weights: &[u32],
+        [dx, dy]: [i32; 2],
+    ) -> u64 {
+        let lv = &self.levels[level as usize];
+        cells
+            .iter()
+            .zip(weights)
+            .map(|(&[i, j], &w)| u64::from(lv.value([i + dx, j + dy])) * u64::from(w))
+            .sum()
+    }
+}
+
+/// A likelihood in [0, 1] as a `u16`, rounded.
+fn quantise(v: f64) -> u16 {
+    (v * f64::from(FULL_SCALE)).round() as u16
+}
+
+/// Weight units per metre of range.
+const WEIGHT_PER_M: f64 = 64.0;
+
+/// The largest weight: a sum over 2^24 returns cannot overflow.
+const MAX_WEIGHT: f64 = (1u32 << 24) as f64;
+
+/// The weight of a source return in the score: its range, in 1/64 m (at least 1). A fan of
+/// evenly spaced beams samples a surface at range `r` every `r Δα` (at normal incidence), so
+/// weighting each return by its range gives every metre of surface the same say; unweighted,
+/// the densely sampled near field outvotes everything else, and on a 180° scan the pose that
+/// keeps the near field in view (no motion) beats the true one whenever the motion carries
+/// that near field out of the reference's field of view (a corridor).
+pub(crate) fn range_weight(r: &Return) -> u32 {
+    (r.range_m * WEIGHT_PER_M).round().clamp(1.0, MAX_WEIGHT) as u32
+}
+
+/// A weighted sum of quantised values as a weighted mean likelihood in [0, 1], given the sum
+/// of the weights (0 without weights).
+pub(crate) fn mean_of(sum: u64, total: u64) -> f64 {
+    if total == 0 {
+        0.0
+    } else {
+        sum as f64 / (total as f64 * f64::from(FULL_SCALE))
+    }
+}
+
+/// The score of `t_ref_src` on `grid`: the mean over `source`'s returns, weighted by their
+/// ranges (see [`range_weight`]), of the level-0 likelihood at the cell each moved return
+/// falls in (0 outside the grid), in [0, 1]; 0 for a scan without returns. The score the
+/// global search maximises, so a fine registration's result can be compared with the search's
+/// best (up to a return crossing a cell border where the search moved it by whole cells).
+pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>) -> f64 {
+    let (sum, total) = source.returns().iter().fold((0, 0), |(sum, total), r| {
+        let w = u64::from(range_weight(r));
+        let v = u64::from(grid.value(0, grid.cell_of(&(t_ref_src * r.point))));
+        (sum + v * w, total + w)
+    });
+    mean_of(sum, total)
+}

@@ -1,0 +1,443 @@
+//! A global initial guess by correlative scan matching (CSM): the pose of a source scan on a
+//! likelihood grid of the reference scan that maximises the mean likelihood of the moved
+//! source points, over a square translation window around a centre pose and a set of rotation
+//! candidates, found exactly by branch and bound. It gives a fine registration a start within
+//! its basin when the motion between the scans is too large for a start at the identity.
+//!
+//! * [`grid`]: the likelihood grid of the reference (Olson 2009, "Real-time correlative scan
+//!   matching", ICRA) and its max-pooled pyramid (Hess et al. 2016, "Real-time loop closure in
+//!   2D LIDAR SLAM", ICRA).
+//! * [`search`]: the depth-first branch and bound over translations (Hess et al. 2016).
+//! * [`histogram`]: rotation hypotheses from orientation histograms of the surface normals
+//!   (Weiss & von Puttkamer 1995).
+//!
+//! The result is the exact maximum over the discrete search space: rotations on a lattice of
+//! `angular_step_deg` around the centre's, translations on the grid's cells around the
+//! centre's, each source point scored at the cell it falls in. Nothing refines it below a cell
+//! and a step: the fine registration that follows does.
+//!
+//! ```
+//! use icp_core::global::{GlobalMatcher, GlobalParams, GlobalWorkspace};
+//! use icp_core::{Prepared, Scan, SurfaceParams, Surfaces};
+//! use nalgebra::{Isometry2, Point2, Vector2};
+//!
+//! // A room with a recess, seen from inside, and seen again after a 1.2 m, 60° move.
+//! let room: Vec<[f64; 2]> = (0..400)
+//!     .map(|i| {
+//!         let s = i as f64 * 0.05;
+//!         match i / 100 {
+//!             0 => [-4.0 + s * 0.5, -3.0],
+//!             1 => [6.0, -3.0 + s * 0.4],
+//!             2 => [6.0 - s, 5.0],
+//!             _ => [-4.0, 5.0 - s * 0.8],
+//!         }
+//!     })
+//!     .chain((0..40).map(|i| [1.0 + i as f64 * 0.05, -3.0 + 0.02 * i as f64]))
+//!     .collect();
+//! let truth = Isometry2::new(Vector2::new(0.9, -0.8), 60f64.to_radians());
+//! let moved: Vec<[f64; 2]> = room
+//!     .iter()
+//!     .map(|&[x, y]| {
+//!         let q = truth.inverse() * Point2::new(x, y);
+//!         [q.x, q.y]
+//!     })
+//!     .collect();
+//! let (source, reference) = (Scan::from_cartesian(&moved)?, Scan::from_cartesian(&room)?);
+//! let sp = SurfaceParams::default();
+//! let (ss, rs) = (Surfaces::estimate(&source, &sp), Surfaces::estimate(&reference, &sp));
+//!
+//! let params = GlobalParams::default();
+//! let matcher = GlobalMatcher::new(Prepared::new(&reference, &rs), &params)?;
+//! let guess = matcher.search(
+//!     &mut GlobalWorkspace::default(),
+//!     Prepared::new(&source, &ss),
+//!     Isometry2::identity(),
+//! )?;
+//! assert!((guess.t_ref_src.translation.vector - truth.translation.vector).norm() < 0.1);
+//! assert!((guess.t_ref_src.rotation.angle() - truth.rotation.angle()).abs() < 1f64.to_radians());
+//! # Ok::<(), icp_core::IcpError>(())
+//! ```
+
+pub mod grid;
+mod histogram;
+mod search;
+
+use nalgebra::{Isometry2, Point2, Translation2, UnitComplex, Vector2};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, ScanRole};
+use crate::registry::ParamError;
+use crate::{IcpError, Prepared};
+use grid::{mean_of, range_weight};
+pub use grid::{score_at, LikelihoodGrid};
+use histogram::OrientationHistogram;
+use search::{Buffers, Search};
+
+/// How the rotation candidates are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RotationMode {
+    /// Every `angular_step_deg` within `max_rotation_deg` of the centre's rotation.
+    Full,
+    /// Every `angular_step_deg` within `histogram_window_deg` of the centre's rotation and of
+    /// the `histogram_peaks` best rotations of the orientation histograms (Weiss & von
+    /// Puttkamer 1995), those within `max_rotation_deg` of the centre's.
+    Histogram,
+}
+
+/// The parameters of the global search.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(default, deny_unknown_fields)]
+pub struct GlobalParams {
+    /// Side of a likelihood-grid cell, which is also the translation step, metres.
+    pub resolution_m: f64,
+    /// Standard deviation of the likelihood around each reference point, metres.
+    pub sigma_m: f64,
+    /// Half-width of the square translation window around the centre, metres.
+    pub window_m: f64,
+    /// How the rotation candidates are chosen: `full` or `histogram`.
+    pub rotation: RotationMode,
+    /// Largest rotation searched away from the centre's, degrees, in [0, 180].
+    pub max_rotation_deg: f64,
+    /// Spacing of the rotation candidates, degrees; `null`: the angle that moves the source's
+    /// farthest return by one cell, `acos(1 − resolution² / (2 range²))` (Hess et al. 2016).
+    pub angular_step_deg: Option<f64>,
+    /// Width of an orientation-histogram bin, degrees (histogram mode).
+    pub histogram_bin_deg: f64,
+    /// Rotation hypotheses taken from the histograms' correlation peaks (histogram mode).
+    pub histogram_peaks: usize,
+    /// Rotations searched either side of each hypothesis, degrees (histogram mode).
+    pub histogram_window_deg: f64,
+    /// Most cells of the likelihood grid and its pyramid together (2 bytes each).
+    pub max_grid_cells: u64,
+}
+
+impl Default for GlobalParams {
+    fn default() -> Self {
+        Self {
+            resolution_m: 0.1,
+            sigma_m: 0.1,
+            window_m: 2.0,
+            rotation: RotationMode::Full,
+            max_rotation_deg: 180.0,
+            angular_step_deg: None,
+            histogram_bin_deg: 1.0,
+            histogram_peaks: 4,
+            histogram_window_deg: 2.0,
+            max_grid_cells: 1 << 24,
+        }
+    }
+}
+
+/// Most cells either side of the centre in the translation window.
+pub const MAX_WINDOW_CELLS: f64 = 4096.0;
+
+/// Most rotation candidates of one search.
+pub const MAX_ROTATIONS: usize = 1 << 20;
+
+/// Most orientation-histogram bins (a tenth of a degree).
+const MAX_HISTOGRAM_BINS: f64 = 3600.0;
+
+impl GlobalParams {
+    /// `Err` naming the first parameter outside its domain.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        ParamError::check_positive("resolution_m", self.resolution_m)?;
+        ParamError::check_positive("sigma_m", self.sigma_m)?;
+        ParamError::check_non_negative("window_m", self.window_m)?;
+        if self.window_m / self.resolution_m > MAX_WINDOW_CELLS {
+            return Err(ParamError::new(
+                "window_m",
+                self.window_m,
+                "more than 4096 cells of resolution_m either side of the centre",
+            ));
+        }
+        if !(0.0..=180.0).contains(&self.max_rotation_deg) {
+            return Err(ParamError::new(
+                "max_rotation_deg",
+                self.max_rotation_deg,
+                "must be in [0, 180]",
+            ));
+        }
+        if let Some(step) = self.angular_step_deg {
+            ParamError::check_positive("angular_step_deg", step)?;
+        }
+        ParamError::check_positive("histogram_bin_deg", self.histogram_bin_deg)?;
+        let bins = 360.0 / self.histogram_bin_deg;
+        if !(4.0..=MAX_HISTOGRAM_BINS).contains(&bins) {
+            return Err(ParamError::new(
+                "histogram_bin_deg",
+                self.histogram_bin_deg,
+                "must give 4 to 3600 bins over 360 degrees",
+            ));
+        }
+        if self.histogram_peaks == 0 {
+            return Err(ParamError::new(
+                "histogram_peaks",
+                self.histogram_peaks,
+                "at least one hypothesis is needed",
+            ));
+        }
+        ParamError::check_non_negative("histogram_window_deg", self.histogram_window_deg)?;
+        if self.max_grid_cells == 0 {
+            return Err(ParamError::new(
+                "max_grid_cells",
+                self.max_grid_cells,
+                "must be positive",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Offsets either side of the centre, cells.
+    fn window_cells(&self) -> i32 {
+        (self.window_m / self.resolution_m).round() as i32
+    }
+
+    /// The pyramid's depth: the smallest whose top-level block covers the whole window, so
+    /// that each rotation has one top-level node.
+    fn depth(&self) -> u32 {
+        let width = 2 * self.window_cells() as u32 + 1;
+        width.next_power_of_two().trailing_zeros()
+    }
+
+    /// Bins of the orientation histograms.
+    fn histogram_bins(&self) -> usize {
+        (360.0 / self.histogram_bin_deg).round() as usize
+    }
+
+    /// The spacing of the rotation candidates for a source whose farthest return is at
+    /// `max_range_m`, radians.
+    fn angular_step_rad(&self, max_range_m: f64) -> f64 {
+        match self.angular_step_deg {
+            Some(step) => step.to_radians(),
+            // acos(1 − x²/2) = 2 asin(x/2), which keeps its precision for a small x.
+            None => 2.0 * (0.5 * self.resolution_m / max_range_m).min(1.0).asin(),
+        }
+    }
+}
+
+/// The global search's best pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GlobalGuess {
+    /// Maps source points into the reference frame; the centre when no pose scores above 0.
+    pub t_ref_src: Isometry2<f64>,
+    /// The mean likelihood of the moved source points, in [0, 1] (see [`score_at`]).
+    pub score: f64,
+    /// Rotation candidates searched.
+    pub rotations: usize,
+    /// Grid cells read by the search (one per source point per node scored).
+    pub grid_lookups: u64,
+}
+
+/// Buffers of the global search, reused from one search to the next.
+#[derive(Clone, Debug, Default)]
+pub struct GlobalWorkspace {
+    points: Vec<Point2<f64>>,
+    weights: Vec<u32>,
+    rotations: Vec<f64>,
+    buffers: Buffers,
+}
+
+/// A reference scan made ready for global searches: its likelihood grid and pyramid and, in
+/// histogram mode, its orientation histogram. Built once per reference scan.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GlobalMatcher {
+    params: GlobalParams,
+    grid: LikelihoodGrid,
+    histogram: Option<OrientationHistogram>,
+}
+
+/// A parameter error as the crate's error.
+fn section_error(source: ParamError) -> IcpError {
+    IcpError::Config(ConfigError::Section {
+        section: "global",
+        source,
+    })
+}
+
+/// `Err` unless `prepared` has one surface estimate per return.
+fn check_surfaces(prepared: &Prepared<'_>, role: ScanRole) -> Result<(), IcpError> {
+    prepared.check(prepared.surfaces.params(), role)
+}
+
+impl GlobalMatcher {
+    /// Prepares `reference` for searches with `params`.
+    ///
+    /// `Err` when the parameters are invalid (naming the parameter), the scan has no return,
+    /// its grid would exceed `max_grid_cells`, or (histogram mode) its surface estimates are
+    /// not one per return.
+    pub fn new(reference: Prepared<'_>, params: &GlobalParams) -> Result<Self, IcpError> {
+        params.validate().map_err(section_error)?;
+        let histogram = match params.rotation {
+            RotationMode::Full => None,
+            RotationMode::Histogram => {
+                check_surfaces(&reference, ScanRole::Reference)?;
+                Some(OrientationHistogram::new(
+                    reference.surfaces,
+                    params.histogram_bins(),
+                ))
+            }
+        };
+        let grid = LikelihoodGrid::new(
+            reference.scan,
+            params.resolution_m,
+            params.sigma_m,
+            params.depth(),
+            params.max_grid_cells,
+        )?;
+        Ok(Self {
+            params: *params,
+            grid,
+            histogram,
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &GlobalParams {
+        &self.params
+    }
+
+    /// The reference's likelihood grid, to score other poses with [`score_at`].
+    pub fn grid(&self) -> &LikelihoodGrid {
+        &self.grid
+    }
+
+    /// The pose of `source` in the reference frame that scores best within the window around
+    /// `centre` (e.g. the identity, or odometry), in the buffers of `workspace`.
+    ///
+    /// `Err` when `centre` is not finite, the source has no return, (histogram mode) its
+    /// surface estimates are not one per return, or the rotation candidates would exceed
+    /// [`MAX_ROTATIONS`].
+    pub fn search(
+        &self,
+        workspace: &mut GlobalWorkspace,
+        source: Prepared<'_>,
+        centre: Isometry2<f64>,
+    ) -> Result<GlobalGuess, IcpError> {
+        let centre_angle = centre.rotation.angle();
+        let t = centre.translation.vector;
+        for value in [t.x, t.y, centre_angle] {
+            if !value.is_finite() {
+                return Err(IcpError::NonFinite {
+                    what: "centre pose",
+                    index: 0,
+                    value,
+                });
+            }
+        }
+        let GlobalWorkspace {
+            points,
+            weights,
+            rotations,
+            buffers,
+        } = workspace;
+        points.clear();
+        points.extend(source.scan.returns().iter().map(|r| r.point));
+        weights.clear();
+        weights.extend(source.scan.returns().iter().map(range_weight));
+        if points.is_empty() {
+            return Err(IcpError::TooFewPoints {
+                role: ScanRole::Source,
+                got: 0,
+                need: 1,
+            });
+        }
+        let max_range_m = source
+            .scan
+            .returns()
+            .iter()
+            .fold(0.0, |m: f64, r| m.max(r.range_m));
+        let step_rad = self.params.angular_step_rad(max_range_m);
+        self.rotation_candidates(source, centre_angle, step_rad, rotations)?;
+        let best = Search {
+            grid: &self.grid,
+            points,
+            weights,
+            rotations,
+            centre: t,
+            window: self.params.window_cells(),
+        }
+        .run(buffers);
+        let t_ref_src = match best.rotation {
+            Some(r) => {
+                let offset = Vector2::new(f64::from(best.offset[0]), f64::from(best.offset[1]));
+                Isometry2::from_parts(
+                    Translation2::from(t + offset * self.params.resolution_m),
+                    UnitComplex::new(rotations[r]),
+                )
+            }
+            None => centre,
+        };
+        Ok(GlobalGuess {
+            t_ref_src,
+            score: mean_of(best.sum, weights.iter().map(|&w| u64::from(w)).sum()),
+            rotations: rotations.len(),
+            grid_lookups: best.lookups,
+        })
+    }
+
+    /// Fills `out` with the rotation candidates (radians, absolute): the lattice
+    /// `centre + j · step` within `max_rotation_deg`, all of it (full mode) or the points
+    /// within `histogram_window_deg` of the centre and of the histogram peaks (histogram
+    /// mode), in increasing `j`.
+    fn rotation_candidates(
+        &self,
+        source: Prepared<'_>,
+        centre_rad: f64,
+        step_rad: f64,
+        out: &mut Vec<f64>,
+    ) -> Result<(), IcpError> {
+        let max_rad = self.params.max_rotation_deg.to_radians();
+        // A hair of slack so that a step dividing the range reaches its end.
+        let reach = |span_rad: f64| (span_rad / step_rad * (1.0 + 1e-12)).floor();
+        let mut steps: Vec<(f64, f64)> = Vec::new();
+        match &self.histogram {
+            None => steps.push((-reach(max_rad), reach(max_rad))),
+            Some(reference) => {
+                check_surfaces(&source, ScanRole::Source)?;
+                let histogram = OrientationHistogram::new(source.surfaces, reference.bins());
+                let window_rad = self.params.histogram_window_deg.to_radians();
+                let peaks = OrientationHistogram::rotation_peaks(
+                    &histogram,
+                    reference,
+                    self.params.histogram_peaks,
+                );
+                for delta in std::iter::once(0.0).chain(peaks.into_iter().map(|p| {
+                    // The peak relative to the centre, in [−π, π).
+                    (p - centre_rad + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                        - std::f64::consts::PI
+                })) {
+                    steps.push((
+                        ((delta - window_rad) / step_rad).ceil(),
+                        ((delta + window_rad) / step_rad).floor(),
+                    ));
+                }
+            }
+        }
+        let count: f64 = steps.iter().map(|&(lo, hi)| (hi - lo + 1.0).max(0.0)).sum();
+        if count > MAX_ROTATIONS as f64 {
+            return Err(IcpError::GlobalSearchTooLarge {
+                what: "rotation candidates",
+                count,
+                max: MAX_ROTATIONS as f64,
+            });
+        }
+        let mut lattice: Vec<i64> = steps
+            .iter()
+            .flat_map(|&(lo, hi)| lo as i64..=hi as i64)
+            .filter(|&j| {
+                let delta = j as f64 * step_rad;
+                // Beyond ±π the same rotation the other way round.
+                let wrapped = (delta + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                    - std::f64::consts::PI;
+                wrapped.abs() <= max_rad * (1.0 + 1e-12) || delta.abs() <= max_rad
+            })
+            .collect();
+        lattice.sort_unstable();
+        lattice.dedup();
+        out.clear();
+        out.extend(lattice.iter().map(|&j| centre_rad + j as f64 * step_rad));
+        Ok(())
+    }
+}
