@@ -40,6 +40,8 @@ fn main() -> anyhow::Result<()> {
         offset: OffsetChoice::Fixed(0),
         reference_checks: ReferenceChecks::On,
         init: Default::default(),
+        global: Default::default(),
+        global_check: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

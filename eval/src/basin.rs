@@ -253,7 +253,7 @@ pub fn run(
                         Prepared::new(&ds.scans[pair.reference], r),
                         start,
                     );
-                    let status = PairStatus::of(&result);
+                    let status = PairStatus::of(&result, None);
                     let errors = result.ok().map(|r| {
                         let t = &r.t_ref_src;
                         (

@@ -11,6 +11,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use datasets::{Dataset, ScanPair};
+use icp_core::global::GlobalGuess;
 use nalgebra::{Isometry2, Matrix2};
 use serde::{Deserialize, Serialize};
 
@@ -26,6 +27,9 @@ pub enum InitMode {
     /// time step; the identity after a flagged estimate, on the first pair, or when the pairs
     /// are not consecutive.
     ConstantVelocity,
+    /// The best pose of a global search (correlative scan matching with branch and bound,
+    /// `icp_core::global`) around the identity: for motion beyond a local method's basin.
+    Global,
     /// The reference motion itself: a diagnostic that tells starting-point failures from a
     /// method's own accuracy (needs a reference that is a rigid 2D pose).
     Reference,
@@ -33,7 +37,7 @@ pub enum InitMode {
 
 /// Every mode with its name and help, registered once: parsing, `--init`'s help and the
 /// error messages are generated from it.
-pub const MODES: [(InitMode, &str, &str); 3] = [
+pub const MODES: [(InitMode, &str, &str); 4] = [
     (
         InitMode::Identity,
         "identity",
@@ -43,6 +47,11 @@ pub const MODES: [(InitMode, &str, &str); 3] = [
         InitMode::ConstantVelocity,
         "constant-velocity",
         "the variant's previous estimate over this pair's time step; the identity after a flagged one",
+    ),
+    (
+        InitMode::Global,
+        "global",
+        "correlative scan matching (branch and bound) within --global-window-m and all rotations",
     ),
     (
         InitMode::Reference,
@@ -143,6 +152,11 @@ impl InitChain {
         &self.0
     }
 
+    /// True when the chain starts some registration at a global search's result.
+    pub fn global(&self) -> bool {
+        self.0.contains(&InitMode::Global)
+    }
+
     /// True when a pair's start depends on the previous pair's result (the pairs of a variant
     /// then run one after the other).
     pub fn sequential(&self) -> bool {
@@ -185,17 +199,22 @@ pub struct Previous {
 }
 
 /// The start `mode` gives for `pair` (time step `dt_s`), with the mode that actually gave it
-/// (a constant-velocity start without a usable previous estimate is the identity). The chain
-/// was [checked](InitChain::check) against `ds`.
+/// (a constant-velocity start without a usable previous estimate is the identity; so is a
+/// global start without a search result, `global`). The chain was
+/// [checked](InitChain::check) against `ds`.
 pub fn start(
     mode: InitMode,
     ds: &Dataset,
     pair: ScanPair,
     dt_s: f64,
     previous: Option<&Previous>,
+    global: Option<&GlobalGuess>,
 ) -> (Isometry2<f64>, InitMode) {
     let identity = (Isometry2::identity(), InitMode::Identity);
     match mode {
+        // The search is made for every pair when the chain has it; a search that could not
+        // run (its error is kept with the pair) leaves the identity.
+        InitMode::Global => global.map_or(identity, |g| (g.t_ref_src, mode)),
         InitMode::Identity => identity,
         InitMode::ConstantVelocity => match previous {
             Some(&Previous {
@@ -255,7 +274,10 @@ mod tests {
             Err(InitError::Repeated(InitMode::Identity))
         );
         let e = "odometer".parse::<InitChain>().unwrap_err().to_string();
-        assert!(e.contains("identity, constant-velocity, reference"), "{e}");
+        assert!(
+            e.contains("identity, constant-velocity, global, reference"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -33,7 +33,7 @@ pub mod sweep;
 
 pub use outdir::OutputDir;
 pub use reference::ReferenceChecks;
-pub use report::{EvalSetup, OffsetChoice, RunReport};
+pub use report::{EvalSetup, GlobalChecks, OffsetChoice, RunReport};
 
 /// Errors of the harness.
 #[derive(Debug, thiserror::Error)]
@@ -105,7 +105,12 @@ pub fn evaluate(
     }
     setup.init.check(ds)?;
     progress.set_length((setup.variants.len() * pairs.len()) as u64);
-    let runs = runner::run_all(ds, &pairs, &setup.variants, &setup.init, progress);
+    let plan = runner::RunPlan {
+        chain: &setup.init,
+        global: &setup.global,
+        check: setup.global_check == GlobalChecks::On,
+    };
+    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
     progress.finish_and_clear();
     Ok(report::build(ds, &pairs, skipped, setup, &runs))
 }

@@ -12,7 +12,10 @@ use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
 use eval::report::RunReport;
-use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, OutputDir, ReferenceChecks};
+use eval::{
+    evaluate, write_outputs, EvalSetup, GlobalChecks, OffsetChoice, OutputDir, ReferenceChecks,
+};
+use icp_core::global::{GlobalParams, RotationMode};
 use icp_core::matching::MATCHERS;
 use icp_core::variants::{
     builtin, builtin_names, builtins, section_docs, stage_families, table1, VariantSpec, TABLE1,
@@ -176,11 +179,47 @@ struct RunArgs {
     /// Where each registration starts (help generated from the registered modes).
     #[arg(long, default_value = "identity")]
     init: InitChain,
+    /// Check every result against a global search of its pair (correlative scan matching):
+    /// a result far from a clearly better pose is flagged suspect.
+    #[arg(long, value_enum, default_value_t = GlobalChecks::On)]
+    global_check: GlobalChecks,
+    /// Half-width of the global search's translation window around the identity, m.
+    #[arg(long, default_value_t = GlobalParams::default().window_m)]
+    global_window_m: f64,
+    /// Rotation candidates of the global search: full (every step over ±180°) or histogram
+    /// (around the peaks of the surface-normal orientation histograms).
+    #[arg(long, value_enum, default_value_t = GlobalRotation::Full)]
+    global_rotation: GlobalRotation,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
     #[command(flatten)]
     common: Common,
+}
+
+/// The global search's rotation modes on the command line.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum GlobalRotation {
+    Full,
+    Histogram,
+}
+
+impl RunArgs {
+    /// The global search's parameters from the options.
+    fn global(&self) -> Result<GlobalParams> {
+        let params = GlobalParams {
+            window_m: self.global_window_m,
+            rotation: match self.global_rotation {
+                GlobalRotation::Full => RotationMode::Full,
+                GlobalRotation::Histogram => RotationMode::Histogram,
+            },
+            ..GlobalParams::default()
+        };
+        params
+            .validate()
+            .map_err(|e| anyhow::anyhow!("--global-window-m: {e}"))?;
+        Ok(params)
+    }
 }
 
 #[derive(Args)]
@@ -515,7 +554,8 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
         args.reference_offset,
     )?
     .with_reference_checks(args.reference_checks)
-    .with_init(args.init);
+    .with_init(args.init.clone())
+    .with_global(args.global()?, args.global_check);
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -527,7 +567,8 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let variants = resolve_variants(&run.variants, &ds)?;
     let setup = EvalSetup::from_specs(&variants, run.reference_offset)?
         .with_reference_checks(run.reference_checks)
-        .with_init(run.init.clone());
+        .with_init(run.init.clone())
+        .with_global(run.global()?, run.global_check);
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,

@@ -201,10 +201,21 @@ fn failures_md(out: &mut String, report: &RunReport) {
     let _ = writeln!(out, "\n## Failures and flags\n");
     let _ = writeln!(
         out,
-        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}), no overlap (fewer than {:.0} % of the final pairs within {} m). Skipped pairs: {}.\n",
+        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect (a global search of the pair finds a pose more than {} m or {}° away scoring {} more on the reference's likelihood grid; {}). Skipped pairs: {}.\n",
         icp_core::quality::DEGENERATE_RATIO,
         100.0 * icp_core::quality::MIN_OVERLAP,
         icp_core::quality::OVERLAP_GATE_M,
+        crate::status::SUSPECT_APART_M,
+        crate::status::SUSPECT_APART_DEG,
+        crate::status::SUSPECT_SCORE_GAIN,
+        match (&report.global_search, report.config.global_check) {
+            (Some(g), crate::GlobalChecks::On) => format!(
+                "checked on {} pairs, {} searches failed",
+                g.pairs,
+                g.failures.len(),
+            ),
+            _ => "not checked in this run: `--global-check on`".to_owned(),
+        },
         d.skipped_pairs.len()
     );
     let rigid = report.variants.iter().any(|v| v.success_rate.is_some());
@@ -221,11 +232,11 @@ fn failures_md(out: &mut String, report: &RunReport) {
     };
     let _ = writeln!(
         out,
-        "| method | ok | failed | no overlap | degenerate | failure rate |{judged}"
+        "| method | ok | failed | no overlap | degenerate | suspect | failure rate |{judged}"
     );
     let _ = writeln!(
         out,
-        "| --- | ---: | ---: | ---: | ---: | ---: |{}",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |{}",
         if rigid { " ---: | ---: | ---: |" } else { "" }
     );
     let percent =
@@ -244,12 +255,13 @@ fn failures_md(out: &mut String, report: &RunReport) {
         };
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {} |{judged}",
+            "| {} | {} | {} | {} | {} | {} | {} |{judged}",
             v.name,
             v.pairs_ok,
             v.failures.len(),
             v.no_overlap_pairs.len(),
             v.degenerate_pairs.len(),
+            v.suspect_pairs.len(),
             percent(Some(v.failure_rate)),
         );
     }
@@ -258,6 +270,7 @@ fn failures_md(out: &mut String, report: &RunReport) {
         for (flag, pairs) in [
             ("degenerate", &v.degenerate_pairs),
             ("without overlap", &v.no_overlap_pairs),
+            ("suspect", &v.suspect_pairs),
         ] {
             if !pairs.is_empty() {
                 let _ = writeln!(out, "- {} {flag} on pairs {pairs:?}", v.name);

@@ -15,6 +15,7 @@ use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
 use crate::runner::{PairRun, Runs};
 use crate::stats::{median_p95, Stats};
 use crate::status::StatusKind;
+use icp_core::global::GlobalParams;
 
 /// Version of the `summary.json` layout; bump it when a field changes meaning or goes away.
 pub const SCHEMA_VERSION: u32 = 4;
@@ -113,6 +114,15 @@ pub struct PairRecord {
     pub trans_err_m: Option<f64>,
     /// Rotation error of `t_ref_src`, degrees, where the reference is a rigid 2D pose.
     pub rot_err_deg: Option<f64>,
+    /// The pair's global search (when results are checked): its best score on the reference's
+    /// likelihood grid, in [0, 1].
+    pub global_best_score: Option<f64>,
+    /// The registration's score on the same grid.
+    pub global_result_score: Option<f64>,
+    /// Distance from the registration to the search's best pose, m.
+    pub global_apart_m: Option<f64>,
+    /// Rotation between them, degrees.
+    pub global_apart_deg: Option<f64>,
     /// Conditioning of the registration: smallest over largest eigenvalue of its Hessian
     /// (below `icp_core::quality::DEGENERATE_RATIO` the pair is flagged `degenerate`).
     pub cond_ratio: Option<f64>,
@@ -207,6 +217,10 @@ pub struct VariantSummary {
     /// numbers stay in the statistics).
     #[serde(default)]
     pub no_overlap_pairs: Vec<usize>,
+    /// Pairs registered but flagged suspect by the global check (failures of the variant;
+    /// their numbers stay in the statistics).
+    #[serde(default)]
+    pub suspect_pairs: Vec<usize>,
     /// Fraction of the registered pairs that converged.
     pub converged_fraction: f64,
     /// Mean iterations.
@@ -293,6 +307,19 @@ pub struct Population {
     pub left_out: Vec<usize>,
 }
 
+/// The global searches of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SearchSummary {
+    /// Pairs searched.
+    pub pairs: usize,
+    /// Searches that could not run, with the reason (their pairs start at the identity and
+    /// are not checked).
+    pub failures: Vec<Failure>,
+    /// Wall time per search (grid and branch and bound; made once per pair, shared by every
+    /// variant and left out of their timings).
+    pub timing: Option<Timing>,
+}
+
 /// The configuration that produced the run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunConfig {
@@ -301,6 +328,12 @@ pub struct RunConfig {
     /// Where each registration started: the init modes tried in turn.
     #[serde(default)]
     pub init: InitChain,
+    /// The global search's parameters.
+    #[serde(default)]
+    pub global: GlobalParams,
+    /// Whether results were checked against it.
+    #[serde(default)]
+    pub global_check: GlobalChecks,
 }
 
 /// The whole run.
@@ -329,6 +362,9 @@ pub struct RunReport {
     /// it out.
     #[serde(default)]
     pub preparation: Option<Timing>,
+    /// The pairs' global searches, when they were made (`--init global` or result checks).
+    #[serde(default)]
+    pub global_search: Option<SearchSummary>,
     /// One record per variant and pair (written to `pairs.csv`, not to `summary.json`).
     #[serde(skip)]
     pub pairs: Vec<PairRecord>,
@@ -348,6 +384,22 @@ pub struct EvalSetup {
     pub reference_checks: ReferenceChecks,
     /// Where each registration starts.
     pub init: InitChain,
+    /// The global search's parameters (for `--init global` and the result checks).
+    pub global: GlobalParams,
+    /// Whether every result is checked against the pair's global search (a result far from a
+    /// clearly better pose is flagged suspect).
+    pub global_check: GlobalChecks,
+}
+
+/// Whether registrations are checked against a global search of their pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum GlobalChecks {
+    /// Every result is scored on the reference's likelihood grid against the search's best.
+    On,
+    /// No search is made for the check (the paper's run).
+    #[default]
+    Off,
 }
 
 impl EvalSetup {
@@ -362,7 +414,16 @@ impl EvalSetup {
             offset,
             reference_checks: ReferenceChecks::On,
             init: InitChain::default(),
+            global: GlobalParams::default(),
+            global_check: GlobalChecks::Off,
         })
+    }
+
+    /// The same setup with the global search's parameters `global` and checks `check`.
+    pub fn with_global(mut self, global: GlobalParams, check: GlobalChecks) -> Self {
+        self.global = global;
+        self.global_check = check;
+        self
     }
 
     /// The same setup with the initial guesses of `init`.
@@ -527,6 +588,8 @@ pub fn build(
         config: RunConfig {
             variants: setup.variants.iter().map(|v| v.spec()).collect(),
             init: setup.init.clone(),
+            global: setup.global,
+            global_check: setup.global_check,
         },
         reference: ReferenceInfo {
             available: ds.reference.is_some(),
@@ -550,6 +613,28 @@ pub fn build(
         variants: summaries,
         preparation: median_p95(&all_runs.prepare_us)
             .map(|(median_us, p95_us)| Timing { median_us, p95_us }),
+        global_search: (!all_runs.searches.is_empty()).then(|| SearchSummary {
+            pairs: all_runs.searches.len(),
+            failures: all_runs
+                .searches
+                .iter()
+                .enumerate()
+                .filter_map(|(i, s)| {
+                    s.result.as_ref().err().map(|e| Failure {
+                        pair: i,
+                        reason: e.to_string(),
+                    })
+                })
+                .collect(),
+            timing: median_p95(
+                &all_runs
+                    .searches
+                    .iter()
+                    .map(|s| s.time_us)
+                    .collect::<Vec<_>>(),
+            )
+            .map(|(median_us, p95_us)| Timing { median_us, p95_us }),
+        }),
         pairs: records,
         trajectories,
     }
@@ -611,6 +696,10 @@ fn record(
         hdg_chained_err_deg: None,
         rot_est_dps: est.map(|m| m.rot_dps),
         rot_ref_dps: reference.map(|r| r.dcog_deg / dt_s),
+        global_best_score: run.check.map(|c| c.best_score),
+        global_result_score: run.check.map(|c| c.result_score),
+        global_apart_m: run.check.map(|c| c.apart().0),
+        global_apart_deg: run.check.map(|c| c.apart().1),
         cond_ratio: reg.and_then(|r| r.conditioning).map(|c| c.ratio),
         overlap: reg.map(|r| r.overlap),
         trans_err_m: truth_err.map(|e| e.0),
@@ -674,6 +763,7 @@ fn summarize(
         flag_quality: FlagQuality::of(rows),
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
+        suspect_pairs: flagged(rows, StatusKind::Suspect),
         trajectory: TrajectoryStats {
             heading_rms_error_deg: {
                 let e: Vec<f64> = rows.iter().filter_map(|r| r.hdg_chained_err_deg).collect();

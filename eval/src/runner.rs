@@ -9,15 +9,17 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
+use icp_core::global::{score_at, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace};
 use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
 use indicatif::ProgressBar;
+use nalgebra::Isometry2;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use crate::init::{self, InitChain, InitMode, Previous};
-use crate::status::PairStatus;
+use crate::status::{GlobalCheck, PairStatus};
 
 /// One registration's outcome and its wall time.
 #[derive(Clone, Debug)]
@@ -26,12 +28,25 @@ pub struct PairRun {
     pub result: Result<Registration, IcpError>,
     /// The verdict on it.
     pub status: PairStatus,
+    /// What the pair's global search says about the result, when results are checked.
+    pub check: Option<GlobalCheck>,
     /// The initial-guess mode whose start gave the result kept.
     pub init: InitMode,
     /// Registrations made along the init chain (the result kept is the last of them).
     pub attempts: usize,
     /// Wall time of the registrations made along the init chain, their scans' surface
-    /// estimates aside, microseconds (not reproducible: kept apart).
+    /// estimates and the pair's global search aside, microseconds (not reproducible: kept
+    /// apart).
+    pub time_us: f64,
+}
+
+/// The global search of one pair (made once, shared by every variant).
+#[derive(Clone, Debug)]
+pub struct PairSearch {
+    /// Its best pose and score, or why it could not run (the pair's registrations then start
+    /// at the identity where the chain says global, and are not checked).
+    pub result: Result<GlobalGuess, IcpError>,
+    /// Wall time of the grid and the search, microseconds.
     pub time_us: f64,
 }
 
@@ -44,6 +59,27 @@ pub struct Runs {
     /// parameter sets the variants use), microseconds: made once, shared by every variant and
     /// by both pairs that use the scan.
     pub prepare_us: Vec<f64>,
+    /// Per pair, its global search, when the chain starts at one or results are checked.
+    pub searches: Vec<PairSearch>,
+}
+
+/// What a run does besides registering: where registrations start, and whether a global
+/// search checks every result.
+#[derive(Clone, Debug)]
+pub struct RunPlan<'a> {
+    /// The init chain.
+    pub chain: &'a InitChain,
+    /// The global search's parameters.
+    pub global: &'a GlobalParams,
+    /// Whether every result is checked against the pair's global search.
+    pub check: bool,
+}
+
+impl RunPlan<'_> {
+    /// True when each pair needs its global search.
+    fn searches(&self) -> bool {
+        self.check || self.chain.global()
+    }
 }
 
 /// Pairs per block. The surface estimates of the block's scans (one more than its pairs when
@@ -108,34 +144,78 @@ impl PreparedScans<'_> {
     }
 }
 
-/// Registers every pair with every registrar, each starting as `chain` says (checked against
-/// `ds` by the caller).
+/// Registers every pair with every registrar, each starting as `plan` says (its chain checked
+/// against `ds` by the caller).
 pub fn run_all(
     ds: &Dataset,
     pairs: &[ScanPair],
     registrars: &[Box<dyn Registrar>],
-    chain: &InitChain,
+    plan: &RunPlan<'_>,
     progress: &ProgressBar,
 ) -> Runs {
-    run_blocks(ds, pairs, registrars, chain, progress, BLOCK_PAIRS)
+    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS)
+}
+
+/// A pair's global search with the reference's likelihood grid, which scores the results.
+struct Searched {
+    matcher: GlobalMatcher,
+    guess: GlobalGuess,
 }
 
 /// What the registrations of a block need besides the registrar and the pair.
 struct BlockJob<'a> {
     ds: &'a Dataset,
     prepared: &'a PreparedScans<'a>,
-    chain: &'a InitChain,
+    plan: &'a RunPlan<'a>,
 }
 
 impl BlockJob<'_> {
+    /// The global search of `pair` (surfaces of the default parameters, which the runner
+    /// always prepares when searches are made).
+    fn search(
+        &self,
+        pair: ScanPair,
+        workspace: &mut GlobalWorkspace,
+    ) -> (Option<Searched>, PairSearch) {
+        let params = SurfaceParams::default();
+        let prepared_scan =
+            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+        let clock = Instant::now();
+        let searched = GlobalMatcher::new(prepared_scan(pair.reference), self.plan.global)
+            .and_then(|matcher| {
+                let guess =
+                    matcher.search(workspace, prepared_scan(pair.source), Isometry2::identity())?;
+                Ok(Searched { matcher, guess })
+            });
+        let time_us = clock.elapsed().as_secs_f64() * 1e6;
+        match searched {
+            Ok(s) => {
+                let info = PairSearch {
+                    result: Ok(s.guess),
+                    time_us,
+                };
+                (Some(s), info)
+            }
+            Err(e) => (
+                None,
+                PairSearch {
+                    result: Err(e),
+                    time_us,
+                },
+            ),
+        }
+    }
+
     /// Registers `pair` with `reg` from each start of the chain in turn, until a result is not
-    /// flagged (else the last one is kept); `previous` is the variant's previous result.
+    /// flagged (else the last one is kept); `previous` is the variant's previous result and
+    /// `searched` the pair's global search.
     fn run(
         &self,
         reg: &dyn Registrar,
         workspace: &mut Workspace,
         pair: ScanPair,
         previous: Option<&Previous>,
+        searched: Option<&Searched>,
     ) -> PairRun {
         let params = reg.surface_params();
         let prepared_scan =
@@ -144,16 +224,27 @@ impl BlockJob<'_> {
         let dt_s = self.ds.pair_dt_s(pair);
         let mut time_us = 0.0;
         let mut kept = None;
-        for (attempt, &mode) in self.chain.modes().iter().enumerate() {
-            let (start, used) = init::start(mode, self.ds, pair, dt_s, previous);
+        for (attempt, &mode) in self.plan.chain.modes().iter().enumerate() {
+            let guess = searched.map(|s| &s.guess);
+            let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
             let clock = Instant::now();
             let result = reg.register_prepared(workspace, source, reference, start);
             time_us += clock.elapsed().as_secs_f64() * 1e6;
-            let status = PairStatus::of(&result);
+            let check = match (&result, searched) {
+                (Ok(r), Some(s)) if self.plan.check => Some(GlobalCheck {
+                    best_t_ref_src: s.guess.t_ref_src,
+                    best_score: s.guess.score,
+                    result_t_ref_src: r.t_ref_src,
+                    result_score: score_at(s.matcher.grid(), source.scan, &r.t_ref_src),
+                }),
+                _ => None,
+            };
+            let status = PairStatus::of(&result, check.as_ref());
             let done = !status.is_failure();
             kept = Some(PairRun {
                 result,
                 status,
+                check,
                 init: used,
                 attempts: attempt + 1,
                 time_us,
@@ -171,13 +262,17 @@ fn run_blocks(
     ds: &Dataset,
     pairs: &[ScanPair],
     registrars: &[Box<dyn Registrar>],
-    chain: &InitChain,
+    plan: &RunPlan<'_>,
     progress: &ProgressBar,
     block_pairs: usize,
 ) -> Runs {
     let mut params: Vec<SurfaceParams> = Vec::new();
-    for r in registrars {
-        let p = r.surface_params();
+    let searches = plan.searches();
+    let wanted = registrars
+        .iter()
+        .map(|r| r.surface_params())
+        .chain(searches.then(SurfaceParams::default));
+    for p in wanted {
         if !params.contains(&p) {
             params.push(p);
         }
@@ -187,6 +282,7 @@ fn run_blocks(
         per_scan: BTreeMap::new(),
     };
     let mut prepare_us = Vec::new();
+    let mut pair_searches = Vec::new();
     let n = registrars.len();
     let mut per_variant: Vec<Vec<PairRun>> = registrars
         .iter()
@@ -194,20 +290,30 @@ fn run_blocks(
         .collect();
     for (b, block) in pairs.chunks(block_pairs).enumerate() {
         prepared.advance(ds, block, &mut prepare_us);
-        let prepared = &prepared;
         let job = BlockJob {
             ds,
-            prepared,
-            chain,
+            prepared: &prepared,
+            plan,
         };
-        if chain.sequential() {
-            // A start depends on the same variant's previous result: each variant runs its
-            // pairs in order, the variants in parallel.
+        if plan.chain.sequential() {
+            // A start depends on the same variant's previous result: the pairs' searches are
+            // made first (in parallel; a grid is rebuilt where a result is scored), then each
+            // variant runs its pairs in order, the variants in parallel.
+            if searches {
+                let made: Vec<PairSearch> = block
+                    .par_iter()
+                    .map_init(GlobalWorkspace::default, |gws, &pair| {
+                        job.search(pair, gws).1
+                    })
+                    .collect();
+                pair_searches.extend(made);
+            }
             let runs: Vec<Vec<PairRun>> = registrars
                 .par_iter()
                 .zip(per_variant.par_iter())
                 .map(|(reg, done)| {
                     let mut workspace = Workspace::default();
+                    let mut gws = GlobalWorkspace::default();
                     // Carried over from the block before.
                     let mut previous = done
                         .last()
@@ -215,8 +321,14 @@ fn run_blocks(
                     block
                         .iter()
                         .map(|&pair| {
-                            let run =
-                                job.run(reg.as_ref(), &mut workspace, pair, previous.as_ref());
+                            let searched = searches.then(|| job.search(pair, &mut gws).0).flatten();
+                            let run = job.run(
+                                reg.as_ref(),
+                                &mut workspace,
+                                pair,
+                                previous.as_ref(),
+                                searched.as_ref(),
+                            );
                             progress.inc(1);
                             previous = Some(previous_of(ds, pair, &run));
                             run
@@ -229,40 +341,58 @@ fn run_blocks(
             }
             continue;
         }
-        let runs: Vec<Vec<PairRun>> = block
+        let runs: Vec<(Vec<PairRun>, Option<PairSearch>)> = block
             .par_iter()
             .enumerate()
             // One workspace per rayon job: buffers are reused across the pairs a thread runs
             // (results never depend on what a workspace held before).
-            .map_init(Workspace::default, |workspace, (i, &pair)| {
-                let position = b * block_pairs + i;
-                // A workspace hands a variant the reference index and first matching of the one
-                // before it on the same pair (same selection, matcher and start): the first of
-                // such a group pays for both. Each pair runs its variants in its own order, so
-                // every variant comes first in its group equally often and the timings compare.
-                let mut order: Vec<usize> = (0..n).collect();
-                order.shuffle(&mut ChaCha8Rng::seed_from_u64(position as u64));
-                let mut runs: Vec<(usize, PairRun)> = order
-                    .into_iter()
-                    .map(|v| {
-                        let run = job.run(registrars[v].as_ref(), workspace, pair, None);
-                        progress.inc(1);
-                        (v, run)
-                    })
-                    .collect();
-                runs.sort_by_key(|(v, _)| *v);
-                runs.into_iter().map(|(_, run)| run).collect()
-            })
+            .map_init(
+                || (Workspace::default(), GlobalWorkspace::default()),
+                |(workspace, gws), (i, &pair)| {
+                    let position = b * block_pairs + i;
+                    let (searched, search) = if searches {
+                        let (s, info) = job.search(pair, gws);
+                        (s, Some(info))
+                    } else {
+                        (None, None)
+                    };
+                    // A workspace hands a variant the reference index and first matching of
+                    // the one before it on the same pair (same selection, matcher and start):
+                    // the first of such a group pays for both. Each pair runs its variants in
+                    // its own order, so every variant comes first in its group equally often
+                    // and the timings compare.
+                    let mut order: Vec<usize> = (0..n).collect();
+                    order.shuffle(&mut ChaCha8Rng::seed_from_u64(position as u64));
+                    let mut runs: Vec<(usize, PairRun)> = order
+                        .into_iter()
+                        .map(|v| {
+                            let run = job.run(
+                                registrars[v].as_ref(),
+                                workspace,
+                                pair,
+                                None,
+                                searched.as_ref(),
+                            );
+                            progress.inc(1);
+                            (v, run)
+                        })
+                        .collect();
+                    runs.sort_by_key(|(v, _)| *v);
+                    (runs.into_iter().map(|(_, run)| run).collect(), search)
+                },
+            )
             .collect();
-        for pair_runs in runs {
+        for (pair_runs, search) in runs {
             for (variant, run) in per_variant.iter_mut().zip(pair_runs) {
                 variant.push(run);
             }
+            pair_searches.extend(search);
         }
     }
     Runs {
         per_variant,
         prepare_us,
+        searches: pair_searches,
     }
 }
 
@@ -315,10 +445,15 @@ mod tests {
         };
         let progress = ProgressBar::hidden();
         let chain = InitChain::default();
-        let whole = run_blocks(&ds, &pairs, &registrars, &chain, &progress, BLOCK_PAIRS);
+        let plan = RunPlan {
+            chain: &chain,
+            global: &GlobalParams::default(),
+            check: true,
+        };
+        let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS);
         assert_eq!(whole.per_variant[0].len(), pairs.len());
         for block_pairs in [1, 2, 5] {
-            let blocks = run_blocks(&ds, &pairs, &registrars, &chain, &progress, block_pairs);
+            let blocks = run_blocks(&ds, &pairs, &registrars, &plan, &progress, block_pairs);
             assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
             // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
             // holds only the scans it shares with the block before (scan 10).

@@ -145,6 +145,9 @@ fn without_timing(dir: &Path) -> (String, serde_json::Value) {
     for v in json["variants"].as_array_mut().unwrap() {
         v.as_object_mut().unwrap().remove("timing");
     }
+    if let Some(search) = json["global_search"].as_object_mut() {
+        assert!(search.remove("timing").is_some());
+    }
     let preparation = json.as_object_mut().unwrap().remove("preparation");
     assert!(preparation.is_some_and(|p| p["median_us"].as_f64().unwrap() > 0.0));
     (csv, json)

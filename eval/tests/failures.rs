@@ -65,7 +65,7 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
     );
     let table = eval::output::table_md(&report);
     assert!(
-        table.contains("| HD_ICP | 3 | 2 | 0 | 0 | 40.0 % | 60.0 % |"),
+        table.contains("| HD_ICP | 3 | 2 | 0 | 0 | 0 | 40.0 % | 60.0 % |"),
         "{table}"
     );
 }
@@ -182,6 +182,8 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
         offset: OffsetChoice::Fixed(0),
         reference_checks: eval::ReferenceChecks::On,
         init: Default::default(),
+        global: Default::default(),
+        global_check: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.population.pairs, 6);

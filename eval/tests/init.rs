@@ -172,3 +172,64 @@ fn a_reference_start_needs_a_rigid_reference() {
     );
     assert!("identity,constant-velocity".parse::<InitChain>().is_ok());
 }
+
+/// Scan 1 is scan 0 seen after a 1.2 m, 75° move: far outside a local method's basin from
+/// the identity. The identity start fails and the check flags it; the global start succeeds.
+#[test]
+fn identity_fails_and_global_succeeds_on_a_large_motion() {
+    let mut ds = generate(&Scenario {
+        n_scans: 2,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let truth = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.9, -0.8), 75f64.to_radians());
+    let moved: Vec<[f64; 2]> = ds.scans[0]
+        .returns()
+        .iter()
+        .map(|r| {
+            let q = truth * r.point;
+            [q.x, q.y]
+        })
+        .collect();
+    let t1 = ds.scans[1].timestamp_s().unwrap();
+    ds.scans[1] = Scan::from_cartesian(&moved)
+        .unwrap()
+        .with_timestamp(t1)
+        .unwrap();
+    let r0 = ds.reference.as_ref().unwrap()[0];
+    let pose1 = r0.scan_pose().unwrap() * truth.inverse();
+    let r1 = &mut ds.reference.as_mut().unwrap()[1];
+    r1.x_m = pose1.translation.x;
+    r1.y_m = pose1.translation.y;
+    r1.scan_yaw_rad = Some(pose1.rotation.angle());
+    r1.heading_rad = r0.heading_rad + (pose1.rotation.angle() - r0.scan_yaw_rad.unwrap());
+    let run = |init: &str| {
+        let specs = [builtin("HD_PL_ICP").unwrap()];
+        let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
+            .unwrap()
+            .with_init(init.parse().unwrap())
+            .with_global(Default::default(), eval::GlobalChecks::On);
+        evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
+    };
+    let identity = run("identity");
+    let row = &identity.pairs[0];
+    assert!(row.trans_err_m.unwrap() > 0.3, "{row:?}");
+    assert_ne!(
+        row.status,
+        StatusKind::Ok,
+        "a wrong result is flagged: {row:?}"
+    );
+    let global = run("global");
+    let row = &global.pairs[0];
+    assert_eq!(row.init, InitMode::Global);
+    assert!(
+        row.trans_err_m.unwrap() < 0.01 && row.rot_err_deg.unwrap().abs() < 0.1,
+        "{row:?}"
+    );
+    assert_eq!(row.status, StatusKind::Ok, "{row:?}");
+    assert_eq!(global.variants[0].success_rate, Some(1.0));
+    // A chain falls back to the global start where the identity's result is flagged.
+    let chained = run("identity,global");
+    assert_eq!(chained.pairs[0].init, InitMode::Global);
+    assert_eq!(chained.pairs[0].init_attempts, 2);
+}

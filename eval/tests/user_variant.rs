@@ -33,6 +33,8 @@ fn a_user_variant_runs_compares_and_describes_itself() {
         offset: OffsetChoice::Fixed(0),
         reference_checks: ReferenceChecks::On,
         init: Default::default(),
+        global: Default::default(),
+        global_check: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.variants[1].name, "RA_ICP");
