@@ -130,12 +130,54 @@ fn a_room_moved_by_1_2_m_and_60_degrees_is_found_in_both_modes() {
 }
 
 #[test]
+fn a_featureless_corridor_is_flagged_ambiguous_and_a_room_is_not() {
+    // Two parallel walls 2 m apart and 30 m long, seen 1 m further along: every shift along
+    // the corridor fits as well as the true one.
+    let corridor: Vec<Point2<f64>> = (0..600)
+        .map(|i| {
+            Point2::new(
+                -15.0 + (i / 2) as f64 * 0.1,
+                if i % 2 == 0 { -1.0 } else { 1.0 },
+            )
+        })
+        .collect();
+    let truth = Isometry2::new(Vector2::new(1.0, 0.0), 0.0);
+    let reference = Owned::new(seen_from(&corridor, &Isometry2::identity()));
+    let source = Owned::new(seen_from(&corridor[..560], &truth));
+    let params = GlobalParams::default();
+    let along = search(&params, &source, &reference, Isometry2::identity()).unwrap();
+    let runner_up = along.runner_up_score.expect("a corridor is ambiguous");
+    assert!(runner_up > 0.95 * along.score, "{along:?}");
+    // The room: no distinct translation comes close; with the ratio at 1, nothing is searched.
+    let room_ref = Owned::new(seen_from(&room(0.0), &Isometry2::identity()));
+    let room_src = Owned::new(seen_from(&room(0.025), &truth));
+    let guess = search(&params, &room_src, &room_ref, Isometry2::identity()).unwrap();
+    assert_eq!(guess.runner_up_score, None, "{guess:?}");
+    let ratio = |r: f64| GlobalParams {
+        ambiguity_ratio: r,
+        ..params
+    };
+    let loose = search(&ratio(0.0), &room_src, &room_ref, Isometry2::identity()).unwrap();
+    assert!(
+        loose.runner_up_score.unwrap() < 0.8 * loose.score,
+        "{loose:?}"
+    );
+    let off = search(&ratio(1.0), &source, &reference, Isometry2::identity()).unwrap();
+    assert_eq!(off.runner_up_score, None);
+    assert_eq!((off.t_ref_src, off.score), (along.t_ref_src, along.score));
+    assert!(off.grid_lookups < along.grid_lookups);
+}
+
+#[test]
 fn the_histogram_mode_searches_far_fewer_rotations() {
     let truth = Isometry2::new(Vector2::new(-0.4, 0.9), -100f64.to_radians());
     let reference = Owned::new(seen_from(&room(0.0), &Isometry2::identity()));
     let source = Owned::new(seen_from(&room(0.025), &truth));
     let full = search(
-        &GlobalParams::default(),
+        &GlobalParams {
+            rotation: RotationMode::Full,
+            ..GlobalParams::default()
+        },
         &source,
         &reference,
         Isometry2::identity(),
@@ -171,6 +213,7 @@ fn the_window_and_rotation_limits_hold_around_the_centre() {
     let params = GlobalParams {
         window_m: 0.5,
         max_rotation_deg: 10.0,
+        rotation: RotationMode::Full,
         ..GlobalParams::default()
     };
     let near = Isometry2::new(Vector2::new(0.5, -0.6), 55f64.to_radians());
@@ -257,8 +300,10 @@ fn degenerate_inputs_give_typed_errors_or_a_zero_score() {
     let one = Owned::new(Scan::from_cartesian(&[[1.0, 2.0]]).unwrap());
     let guess = search(&params, &one, &one, Isometry2::identity()).unwrap();
     assert!(guess.score > 0.6 && guess.score <= 1.0, "{guess:?}");
-    // A return 1e300 m away makes the derived angular step vanish: too many rotations.
-    let huge = Owned::new(Scan::from_cartesian(&[[1e300, -1e300], [2.0, 1.0]]).unwrap());
+    // A return 1e300 m away makes the derived angular step vanish: too many rotations. (Its
+    // spread is along x only: the surface estimates of a scan spread along both axes would
+    // allocate a cell index of 2^30 cells.)
+    let huge = Owned::new(Scan::from_cartesian(&[[1e300, 0.5], [2.0, 1.0]]).unwrap());
     assert!(matches!(
         search(&params, &huge, &reference, Isometry2::identity()),
         Err(IcpError::GlobalSearchTooLarge {
@@ -309,6 +354,7 @@ fn degenerate_inputs_give_typed_errors_or_a_zero_score() {
     ));
     let fine = GlobalParams {
         angular_step_deg: Some(1e-4),
+        rotation: RotationMode::Full,
         ..params
     };
     assert!(matches!(

@@ -2,7 +2,7 @@
 //!
 //! Level 0 is Olson's (2009) rasterised cost table: each cell of side `resolution_m` holds
 //! `max_p exp(−d²/(2σ²))`, `d` the distance from the cell's centre to reference point `p`,
-//! truncated to 0 beyond [`TRUNCATION_SIGMAS`] σ and quantised to `u16` (65535 = 1). Level `h`
+//! truncated to 0 beyond [`TRUNCATION_SIGMAS`] σ and quantised to `u8` (255 = 1). Level `h`
 //! is Hess et al.'s (2016) precomputation grid: its cell `(i, j)` holds the maximum of the
 //! level-0 cells `[i, i + 2^h) × [j, j + 2^h)`, so a source scan's sum over level `h` at a
 //! translation bounds its level-0 sum at every translation of the `2^h × 2^h` block starting
@@ -21,17 +21,21 @@ use crate::{IcpError, Scan};
 pub const TRUNCATION_SIGMAS: f64 = 3.0;
 
 /// The quantised likelihood of 1.
-pub const FULL_SCALE: u16 = u16::MAX;
+pub const FULL_SCALE: u8 = u8::MAX;
 
-/// Cell coordinates are clamped to ±this: far outside any grid (whose sides are bounded by the
-/// cell limit) even after a window offset, and far from `i32` overflow.
+/// Most cells along a side of a level.
+const MAX_SIDE_CELLS: f64 = (1 << 26) as f64;
+
+/// Cell coordinates are clamped to ±this: far outside any level (see [`MAX_SIDE_CELLS`]) even
+/// after a window offset (at most 2^12 cells) and a level's offset (less than 2^14 cells), and
+/// far from `i32` overflow.
 const FAR_CELL: f64 = (1 << 28) as f64;
 
 /// One level of the pyramid: `data[(j + offset) * nx + i + offset]` is the cell `(i, j)` for
 /// `i` in `−offset..nx − offset` (and likewise `j`).
 #[derive(Clone, Debug, PartialEq)]
 struct Level {
-    data: Vec<u16>,
+    data: Vec<u8>,
     nx: u32,
     ny: u32,
     offset: i32,
@@ -40,7 +44,7 @@ struct Level {
 impl Level {
     /// The value of cell `(i, j)`, 0 outside the level.
     #[inline]
-    fn value(&self, [i, j]: [i32; 2]) -> u16 {
+    fn value(&self, [i, j]: [i32; 2]) -> u8 {
         // A negative index wraps to a large u32 and fails the test: one compare per axis.
         let (a, b) = ((i + self.offset) as u32, (j + self.offset) as u32);
         if a < self.nx && b < self.ny {
@@ -50,18 +54,28 @@ impl Level {
         }
     }
 
+    /// The sum over `cells`, each shifted by `offset` and weighted by `weights`.
+    #[inline]
+    fn sum(&self, cells: &[[i32; 2]], weights: &[u32], [dx, dy]: [i32; 2]) -> u64 {
+        cells
+            .iter()
+            .zip(weights)
+            .map(|(&[i, j], &w)| u64::from(self.value([i + dx, j + dy])) * u64::from(w))
+            .sum()
+    }
+
     /// The level above `self` (`self` pools blocks of `s` cells, the result `2s`):
     /// `max` of the cells at `(i, j)`, `(i + s, j)`, `(i, j + s)` and `(i + s, j + s)`, pooled
     /// along x then along y.
     fn pooled(&self, s: u32) -> Level {
         let (nx, ny, s) = (self.nx as usize, self.ny as usize, s as usize);
         let (mx, my) = (nx + s, ny + s);
-        let mut along_x = vec![0u16; mx * ny];
+        let mut along_x = vec![0u8; mx * ny];
         for (row, out) in self.data.chunks_exact(nx).zip(along_x.chunks_exact_mut(mx)) {
             max_shifted(out, row, s);
         }
         // Along y the rows are shifted by s rows: the same operation on the whole array.
-        let mut data = vec![0u16; mx * my];
+        let mut data = vec![0u8; mx * my];
         max_shifted(&mut data, &along_x, s * mx);
         Level {
             data,
@@ -74,7 +88,7 @@ impl Level {
 
 /// `out[a] = max(v[a − s], v[a])` for `a` in `0..v.len() + s`, a missing `v` being 0: in array
 /// indices, the pooled cell `a` of a level offset by `s` more than `v`'s.
-fn max_shifted(out: &mut [u16], v: &[u16], s: usize) {
+fn max_shifted(out: &mut [u8], v: &[u8], s: usize) {
     out[..v.len()].copy_from_slice(v);
     for (o, &x) in out[s..].iter_mut().zip(v) {
         *o = (*o).max(x);
@@ -128,6 +142,15 @@ impl LikelihoodGrid {
         let origin = Point2::new(lo.x - reach_m, lo.y - reach_m);
         let cells = |extent_m: f64| ((extent_m + 2.0 * reach_m) / resolution_m).floor() + 1.0;
         let (fx, fy) = (cells(hi.x - lo.x), cells(hi.y - lo.y));
+        let top_pad = ((1u64 << depth) - 1) as f64;
+        let side = fx.max(fy) + top_pad;
+        if side > MAX_SIDE_CELLS {
+            return Err(IcpError::GlobalSearchTooLarge {
+                what: "grid cells along a side",
+                count: side,
+                max: MAX_SIDE_CELLS,
+            });
+        }
         // Every level holds (n + 2^h − 1) cells a side.
         let total: f64 = (0..=depth)
             .map(|h| {
@@ -143,7 +166,7 @@ impl LikelihoodGrid {
             });
         }
         let (nx, ny) = (fx as usize, fy as usize);
-        let mut data = vec![0u16; nx * ny];
+        let mut data = vec![0u8; nx * ny];
         let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
         let reach_sq = reach_m * reach_m;
         // The cells whose centre may be within reach of coordinate c along one axis.
@@ -210,10 +233,12 @@ impl LikelihoodGrid {
     pub(crate) fn cell_of(&self, q: &Point2<f64>) -> [i32; 2] {
         let inv_res = 1.0 / self.resolution_m;
         let c = |v: f64, o: f64| {
-            let f = ((v - o) * inv_res).floor();
-            // NaN fails both comparisons and goes far away too.
+            let f = (v - o) * inv_res;
+            // NaN fails the test and goes far away too.
             if (-FAR_CELL..=FAR_CELL).contains(&f) {
-                f as i32
+                // The floor, without a call to libm's: truncated, less one below zero.
+                let t = f as i32;
+                t - i32::from(f64::from(t) > f)
             } else {
                 FAR_CELL as i32
             }
@@ -223,31 +248,57 @@ impl LikelihoodGrid {
 
     /// The quantised value at level `level` of cell `cell` (0 outside the grid).
     #[inline]
-    pub(crate) fn value(&self, level: u32, cell: [i32; 2]) -> u16 {
+    pub(crate) fn value(&self, level: u32, cell: [i32; 2]) -> u8 {
         self.levels[level as usize].value(cell)
     }
 
-    /// The sum over `cells`, each shifted by `offset`, at level `level`.
+    /// The sum over `cells`, each shifted by `offset` and weighted by `weights`, at level
+    /// `level`.
     #[inline]
     pub(crate) fn sum(
         &self,
         level: u32,
         cells: &[[i32; 2]],
         weights: &[u32],
-        [dx, dy]: [i32; 2],
+        offset: [i32; 2],
     ) -> u64 {
+        self.levels[level as usize].sum(cells, weights, offset)
+    }
+
+    /// Like [`Self::sum`], but `None` when the sum does not exceed `floor`, given up as soon as
+    /// the cells left cannot lift it above `floor`: `headroom[k]` is the most that the cells
+    /// from `k` on can add. Adds the cells read to `read`.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn sum_above(
+        &self,
+        level: u32,
+        cells: &[[i32; 2]],
+        weights: &[u32],
+        headroom: &[u64],
+        offset: [i32; 2],
+        floor: u64,
+        read: &mut u64,
+    ) -> Option<u64> {
         let lv = &self.levels[level as usize];
-        cells
-            .iter()
-            .zip(weights)
-            .map(|(&[i, j], &w)| u64::from(lv.value([i + dx, j + dy])) * u64::from(w))
-            .sum()
+        let mut sum = 0;
+        for (k, (c, w)) in cells.chunks(CHUNK).zip(weights.chunks(CHUNK)).enumerate() {
+            if sum + headroom[k * CHUNK] <= floor {
+                return None;
+            }
+            *read += c.len() as u64;
+            sum += lv.sum(c, w, offset);
+        }
+        (sum > floor).then_some(sum)
     }
 }
 
-/// A likelihood in [0, 1] as a `u16`, rounded.
-fn quantise(v: f64) -> u16 {
-    (v * f64::from(FULL_SCALE)).round() as u16
+/// Cells read between two checks of a sum against its floor.
+const CHUNK: usize = 16;
+
+/// A likelihood in [0, 1] as a `u8`, rounded.
+fn quantise(v: f64) -> u8 {
+    (v * f64::from(FULL_SCALE)).round() as u8
 }
 
 /// Weight units per metre of range.

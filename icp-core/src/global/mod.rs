@@ -101,7 +101,8 @@ pub struct GlobalParams {
     /// Largest rotation searched away from the centre's, degrees, in [0, 180].
     pub max_rotation_deg: f64,
     /// Spacing of the rotation candidates, degrees; `null`: the angle that moves the source's
-    /// farthest return by one cell, `acos(1 − resolution² / (2 range²))` (Hess et al. 2016).
+    /// farthest return by one cell, `acos(1 − resolution² / (2 range²))` (Hess et al. 2016),
+    /// e.g. 0.21° for a return at 27 m and 0.1 m cells.
     pub angular_step_deg: Option<f64>,
     /// Width of an orientation-histogram bin, degrees (histogram mode).
     pub histogram_bin_deg: f64,
@@ -109,7 +110,13 @@ pub struct GlobalParams {
     pub histogram_peaks: usize,
     /// Rotations searched either side of each hypothesis, degrees (histogram mode).
     pub histogram_window_deg: f64,
-    /// Most cells of the likelihood grid and its pyramid together (2 bytes each).
+    /// The runner-up (see [`GlobalGuess::runner_up_score`]) is searched for down to this
+    /// fraction of the best score, in [0, 1]; 1: not searched.
+    pub ambiguity_ratio: f64,
+    /// A translation more than this from the best along an axis is a distinct hypothesis,
+    /// metres.
+    pub ambiguity_separation_m: f64,
+    /// Most cells of the likelihood grid and its pyramid together (1 byte each).
     pub max_grid_cells: u64,
 }
 
@@ -119,12 +126,14 @@ impl Default for GlobalParams {
             resolution_m: 0.1,
             sigma_m: 0.1,
             window_m: 2.0,
-            rotation: RotationMode::Full,
+            rotation: RotationMode::Histogram,
             max_rotation_deg: 180.0,
             angular_step_deg: None,
             histogram_bin_deg: 1.0,
             histogram_peaks: 4,
             histogram_window_deg: 2.0,
+            ambiguity_ratio: 0.8,
+            ambiguity_separation_m: 0.5,
             max_grid_cells: 1 << 24,
         }
     }
@@ -132,6 +141,9 @@ impl Default for GlobalParams {
 
 /// Most cells either side of the centre in the translation window.
 pub const MAX_WINDOW_CELLS: f64 = 4096.0;
+
+/// The largest `max_grid_cells` (4 GiB of cells).
+pub const MAX_GRID_CELLS: u64 = 1 << 32;
 
 /// Most rotation candidates of one search.
 pub const MAX_ROTATIONS: usize = 1 << 20;
@@ -179,11 +191,19 @@ impl GlobalParams {
             ));
         }
         ParamError::check_non_negative("histogram_window_deg", self.histogram_window_deg)?;
-        if self.max_grid_cells == 0 {
+        if !(0.0..=1.0).contains(&self.ambiguity_ratio) {
+            return Err(ParamError::new(
+                "ambiguity_ratio",
+                self.ambiguity_ratio,
+                "must be in [0, 1]",
+            ));
+        }
+        ParamError::check_non_negative("ambiguity_separation_m", self.ambiguity_separation_m)?;
+        if !(1..=MAX_GRID_CELLS).contains(&self.max_grid_cells) {
             return Err(ParamError::new(
                 "max_grid_cells",
                 self.max_grid_cells,
-                "must be positive",
+                "must be in [1, 2^32]",
             ));
         }
         Ok(())
@@ -222,8 +242,16 @@ impl GlobalParams {
 pub struct GlobalGuess {
     /// Maps source points into the reference frame; the centre when no pose scores above 0.
     pub t_ref_src: Isometry2<f64>,
-    /// The mean likelihood of the moved source points, in [0, 1] (see [`score_at`]).
+    /// The mean likelihood of the moved source points, weighted by their ranges, in [0, 1]
+    /// (see [`score_at`]).
     pub score: f64,
+    /// The best score at the best pose's rotation of a translation distinct from the best one
+    /// (more than `ambiguity_separation_m` away along an axis), when it exceeds
+    /// `ambiguity_ratio` × `score`; `None`: no distinct translation scores that well (or none
+    /// scores above 0, or the ratio is 1). Near `score`, the scans fit in two places, as along
+    /// a corridor. Only the best rotation is searched again: an exact runner-up over all the
+    /// rotations would cost about as much as the search itself.
+    pub runner_up_score: Option<f64>,
     /// Rotation candidates searched.
     pub rotations: usize,
     /// Grid cells read by the search (one per source point per node scored).
@@ -246,6 +274,12 @@ pub struct GlobalMatcher {
     params: GlobalParams,
     grid: LikelihoodGrid,
     histogram: Option<OrientationHistogram>,
+}
+
+/// `angle_rad` wrapped into [−π, π).
+fn wrap(angle_rad: f64) -> f64 {
+    use std::f64::consts::{PI, TAU};
+    (angle_rad + PI).rem_euclid(TAU) - PI
 }
 
 /// A parameter error as the crate's error.
@@ -350,15 +384,23 @@ impl GlobalMatcher {
             .fold(0.0, |m: f64, r| m.max(r.range_m));
         let step_rad = self.params.angular_step_rad(max_range_m);
         self.rotation_candidates(source, centre_angle, step_rad, rotations)?;
-        let best = Search {
+        let search = Search {
             grid: &self.grid,
             points,
             weights,
             rotations,
             centre: t,
             window: self.params.window_cells(),
-        }
-        .run(buffers);
+        };
+        let best = search.run(buffers);
+        let runner_up = (self.params.ambiguity_ratio < 1.0).then(|| {
+            search.runner_up(
+                buffers,
+                &best,
+                (self.params.ambiguity_ratio * best.sum as f64) as u64,
+                (self.params.ambiguity_separation_m / self.params.resolution_m).round() as i32,
+            )
+        });
         let t_ref_src = match best.rotation {
             Some(r) => {
                 let offset = Vector2::new(f64::from(best.offset[0]), f64::from(best.offset[1]));
@@ -369,11 +411,15 @@ impl GlobalMatcher {
             }
             None => centre,
         };
+        let total_weight = weights.iter().map(|&w| u64::from(w)).sum();
         Ok(GlobalGuess {
             t_ref_src,
-            score: mean_of(best.sum, weights.iter().map(|&w| u64::from(w)).sum()),
+            score: mean_of(best.sum, total_weight),
+            runner_up_score: runner_up
+                .filter(|r| r.rotation.is_some())
+                .map(|r| mean_of(r.sum, total_weight)),
             rotations: rotations.len(),
-            grid_lookups: best.lookups,
+            grid_lookups: best.lookups + runner_up.map_or(0, |r| r.lookups),
         })
     }
 
@@ -390,32 +436,34 @@ impl GlobalMatcher {
     ) -> Result<(), IcpError> {
         let max_rad = self.params.max_rotation_deg.to_radians();
         // A hair of slack so that a step dividing the range reaches its end.
-        let reach = |span_rad: f64| (span_rad / step_rad * (1.0 + 1e-12)).floor();
-        let mut steps: Vec<(f64, f64)> = Vec::new();
+        let slack = 1.0 + 1e-12;
+        let reach = (max_rad / step_rad * slack).floor();
+        // Ranges of j, inclusive.
+        let mut ranges: Vec<(f64, f64)> = Vec::new();
         match &self.histogram {
-            None => steps.push((-reach(max_rad), reach(max_rad))),
+            None => ranges.push((-reach, reach)),
             Some(reference) => {
                 check_surfaces(&source, ScanRole::Source)?;
                 let histogram = OrientationHistogram::new(source.surfaces, reference.bins());
-                let window_rad = self.params.histogram_window_deg.to_radians();
                 let peaks = OrientationHistogram::rotation_peaks(
                     &histogram,
                     reference,
                     self.params.histogram_peaks,
                 );
-                for delta in std::iter::once(0.0).chain(peaks.into_iter().map(|p| {
-                    // The peak relative to the centre, in [−π, π).
-                    (p - centre_rad + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                        - std::f64::consts::PI
-                })) {
-                    steps.push((
+                let window_rad = self.params.histogram_window_deg.to_radians();
+                for delta in std::iter::once(0.0).chain(peaks.iter().map(|p| wrap(p - centre_rad)))
+                {
+                    ranges.push((
                         ((delta - window_rad) / step_rad).ceil(),
                         ((delta + window_rad) / step_rad).floor(),
                     ));
                 }
             }
         }
-        let count: f64 = steps.iter().map(|&(lo, hi)| (hi - lo + 1.0).max(0.0)).sum();
+        let count: f64 = ranges
+            .iter()
+            .map(|&(lo, hi)| (hi - lo + 1.0).max(0.0))
+            .sum();
         if count > MAX_ROTATIONS as f64 {
             return Err(IcpError::GlobalSearchTooLarge {
                 what: "rotation candidates",
@@ -423,21 +471,21 @@ impl GlobalMatcher {
                 max: MAX_ROTATIONS as f64,
             });
         }
-        let mut lattice: Vec<i64> = steps
-            .iter()
-            .flat_map(|&(lo, hi)| lo as i64..=hi as i64)
-            .filter(|&j| {
-                let delta = j as f64 * step_rad;
-                // Beyond ±π the same rotation the other way round.
-                let wrapped = (delta + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
-                    - std::f64::consts::PI;
-                wrapped.abs() <= max_rad * (1.0 + 1e-12) || delta.abs() <= max_rad
-            })
-            .collect();
-        lattice.sort_unstable();
-        lattice.dedup();
+        // The j of every range (whole numbers, exact as floats), in order and once each, then
+        // their rotations; beyond ±π a rotation is the same the other way round.
         out.clear();
-        out.extend(lattice.iter().map(|&j| centre_rad + j as f64 * step_rad));
+        out.extend(
+            ranges
+                .iter()
+                .flat_map(|&(lo, hi)| lo as i64..=hi as i64)
+                .map(|j| j as f64)
+                .filter(|&j| wrap(j * step_rad).abs() <= max_rad * slack),
+        );
+        out.sort_by(f64::total_cmp);
+        out.dedup();
+        for j in out.iter_mut() {
+            *j = centre_rad + *j * step_rad;
+        }
         Ok(())
     }
 }

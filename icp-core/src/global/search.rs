@@ -12,7 +12,7 @@
 
 use nalgebra::{Point2, UnitComplex, Vector2};
 
-use super::grid::LikelihoodGrid;
+use super::grid::{LikelihoodGrid, FULL_SCALE};
 
 /// A node of the search: a rotation candidate, a level and the block of offsets it covers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -44,6 +44,7 @@ pub(crate) struct Best {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Buffers {
     cells: Vec<[i32; 2]>,
+    headroom: Vec<u64>,
     top: Vec<Node>,
     stack: Vec<Node>,
     children: Vec<Node>,
@@ -96,48 +97,102 @@ impl Search<'_> {
             })
     }
 
-    /// The best pose by branch and bound (see the module doc).
+    /// The best pose by branch and bound (see the module doc). Leaves in `buffers` the sorted
+    /// top-level nodes that [`Self::runner_up`] starts from.
     pub fn run(&self, buffers: &mut Buffers) -> Best {
-        let Buffers {
-            cells,
-            top,
-            stack,
-            children,
-        } = buffers;
-        let grid = self.grid;
         let n = self.points.len() as u64;
-        let top_level = grid.depth();
-        let mut best = Best {
-            rotation: None,
-            offset: [0, 0],
-            sum: 0,
-            lookups: 0,
-        };
-        top.clear();
+        let top_level = self.grid.depth();
+        // The most the points from k on can add: their weights at full scale.
+        buffers.headroom.clear();
+        buffers.headroom.resize(self.weights.len(), 0);
+        let mut rest = 0;
+        for (h, &w) in buffers.headroom.iter_mut().zip(self.weights).rev() {
+            rest += u64::from(w) * u64::from(FULL_SCALE);
+            *h = rest;
+        }
+        buffers.top.clear();
         let w = self.window;
         for rotation in 0..self.rotations.len() {
-            self.discretise(rotation, cells);
+            self.discretise(rotation, &mut buffers.cells);
             for offset in self.blocks([-w, -w], top_level, [w, w]) {
-                top.push(Node {
+                buffers.top.push(Node {
                     rotation: rotation as u32,
                     level: top_level,
                     offset,
-                    sum: grid.sum(top_level, cells, self.weights, offset),
+                    sum: self
+                        .grid
+                        .sum(top_level, &buffers.cells, self.weights, offset),
                 });
             }
         }
-        best.lookups += top.len() as u64 * n;
         // Best first; the sort is stable, so ties keep their generation order.
-        top.sort_by_key(|node| std::cmp::Reverse(node.sum));
+        buffers.top.sort_by_key(|node| std::cmp::Reverse(node.sum));
+        let mut best = self.descend(buffers, 0, None);
+        best.lookups += buffers.top.len() as u64 * n;
+        best
+    }
+
+    /// The best pose at `best`'s rotation more than `separation` cells of offset away from
+    /// it along an axis (`best`: the result of [`Self::run`] on the same buffers), when its sum
+    /// exceeds `floor` (otherwise `rotation: None`, `sum: floor`).
+    pub fn runner_up(
+        &self,
+        buffers: &mut Buffers,
+        best: &Best,
+        floor: u64,
+        separation: i32,
+    ) -> Best {
+        let none = Best {
+            rotation: None,
+            sum: floor,
+            lookups: 0,
+            ..*best
+        };
+        let Some(rotation) = best.rotation else {
+            return none;
+        };
+        let exclusion = Exclusion {
+            rotation: rotation as u32,
+            lo: best.offset.map(|d| d - separation),
+            hi: best.offset.map(|d| d + separation),
+            window: self.window,
+        };
+        self.descend(buffers, floor, Some(&exclusion))
+    }
+
+    /// The depth-first descent from the sorted top-level nodes in `buffers`: the best leaf
+    /// whose sum exceeds `floor`; with an exclusion, only among the nodes of its rotation and
+    /// outside its offsets.
+    fn descend(&self, buffers: &mut Buffers, floor: u64, exclusion: Option<&Exclusion>) -> Best {
+        let Buffers {
+            cells,
+            headroom,
+            top,
+            stack,
+            children,
+            ..
+        } = buffers;
+        let grid = self.grid;
+        let excluded = |node: &Node| exclusion.is_some_and(|e| e.covers(node));
+        let elsewhere = |node: &Node| exclusion.is_some_and(|e| e.rotation != node.rotation);
+        let mut best = Best {
+            rotation: None,
+            offset: [0, 0],
+            sum: floor,
+            lookups: 0,
+        };
         for root in top.iter() {
             if root.sum <= best.sum {
                 break; // sorted: no later root can do better
+            }
+            if elsewhere(root) {
+                continue;
             }
             self.discretise(root.rotation as usize, cells);
             stack.clear();
             stack.push(*root);
             while let Some(node) = stack.pop() {
-                if node.sum <= best.sum {
+                if node.sum <= best.sum || excluded(&node) {
                     continue;
                 }
                 if node.level == 0 {
@@ -151,9 +206,16 @@ impl Search<'_> {
                 let last = [node.offset[0] + half, node.offset[1] + half];
                 children.clear();
                 for offset in self.blocks(node.offset, level, last) {
-                    let sum = grid.sum(level, cells, self.weights, offset);
-                    best.lookups += n;
-                    if sum > best.sum {
+                    let above = grid.sum_above(
+                        level,
+                        cells,
+                        self.weights,
+                        headroom,
+                        offset,
+                        best.sum,
+                        &mut best.lookups,
+                    );
+                    if let Some(sum) = above {
                         children.push(Node {
                             level,
                             offset,
@@ -168,6 +230,28 @@ impl Search<'_> {
             }
         }
         best
+    }
+}
+
+/// The poses near the best one, left out of the search for the runner-up, which looks at the
+/// best one's rotation only.
+struct Exclusion {
+    /// The best one's rotation candidate.
+    rotation: u32,
+    /// The offsets near the best one's: `lo..=hi` along each axis.
+    lo: [i32; 2],
+    hi: [i32; 2],
+    /// The window's half-width, cells: blocks are clipped to it.
+    window: i32,
+}
+
+impl Exclusion {
+    /// True when every offset of `node` is near the best one's.
+    fn covers(&self, node: &Node) -> bool {
+        let extent = (1i32 << node.level) - 1;
+        (0..2).all(|a| {
+            node.offset[a] >= self.lo[a] && (node.offset[a] + extent).min(self.window) <= self.hi[a]
+        })
     }
 }
 
@@ -231,6 +315,8 @@ mod tests {
             resolution_m in 0.05..0.3f64,
             sigma_m in 0.02..0.4f64,
             centre in (-0.5..0.5f64, -0.5..0.5f64),
+            separation in 0i32..5,
+            ratio in 0.0..1.0f64,
         ) {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
@@ -248,7 +334,8 @@ mod tests {
                 centre: Vector2::new(centre.0, centre.1),
                 window,
             };
-            let bnb = search.run(&mut Buffers::default());
+            let mut buffers = Buffers::default();
+            let bnb = search.run(&mut buffers);
             let brute = search.brute_force();
             prop_assert_eq!(bnb.sum, brute.sum);
             match bnb.rotation {
@@ -257,6 +344,23 @@ mod tests {
                     prop_assert_eq!(sum_at(&search, r, bnb.offset), bnb.sum);
                 }
                 None => prop_assert_eq!(bnb.sum, 0),
+            }
+            // The runner-up at the best rotation, away from the best offset.
+            let floor = (ratio * bnb.sum as f64) as u64;
+            let runner_up = search.runner_up(&mut buffers, &bnb, floor, separation);
+            let oracle = bnb.rotation.and_then(|r| {
+                search
+                    .blocks([-window, -window], 0, [window, window])
+                    .filter(|o| (0..2).any(|a| (o[a] - bnb.offset[a]).abs() > separation))
+                    .map(|o| sum_at(&search, r, o))
+                    .filter(|&s| s > floor)
+                    .max()
+            });
+            prop_assert_eq!(runner_up.rotation.map(|_| runner_up.sum), oracle);
+            if let Some(r) = runner_up.rotation {
+                prop_assert_eq!(Some(r), bnb.rotation);
+                prop_assert!((0..2).any(|a| (runner_up.offset[a] - bnb.offset[a]).abs() > separation));
+                prop_assert_eq!(sum_at(&search, r, runner_up.offset), runner_up.sum);
             }
         }
     }
