@@ -51,7 +51,7 @@ pub const MODES: [(InitMode, &str, &str); 4] = [
     (
         InitMode::Global,
         "global",
-        "correlative scan matching (branch and bound) within --global-window-m and all rotations",
+        "correlative scan matching (branch and bound) within --global-window-m, rotations as --global-rotation says",
     ),
     (
         InitMode::Reference,

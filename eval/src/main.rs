@@ -186,9 +186,10 @@ struct RunArgs {
     /// Half-width of the global search's translation window around the identity, m.
     #[arg(long, default_value_t = GlobalParams::default().window_m)]
     global_window_m: f64,
-    /// Rotation candidates of the global search: full (every step over ±180°) or histogram
-    /// (around the peaks of the surface-normal orientation histograms).
-    #[arg(long, value_enum, default_value_t = GlobalRotation::Full)]
+    /// Rotation candidates of the global search: histogram (around the peaks of the
+    /// surface-normal orientation histograms, and the identity) or full (every step over
+    /// ±180°).
+    #[arg(long, value_enum, default_value_t = GlobalRotation::Histogram)]
     global_rotation: GlobalRotation,
     /// Output directory.
     #[arg(long)]
