@@ -151,6 +151,150 @@ impl SensorModel {
     }
 }
 
+/// Overrides of some of a [`SensorModel`]'s σ, written `key=value,key=value` with the keys
+/// [`SensorOverrides::KEYS`] (`sigma_r_const_m=0.01,sigma_r_per_m=0,sigma_alpha_deg=0.25`):
+/// each key at most once, any subset of them, values in the key's unit. [`apply`] sets them on
+/// a base model and checks the result.
+///
+/// [`apply`]: SensorOverrides::apply
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SensorOverrides {
+    /// Constant part of the range standard deviation, metres.
+    pub sigma_r_const_m: Option<f64>,
+    /// Range-proportional part of the range standard deviation, metres per metre.
+    pub sigma_r_per_m: Option<f64>,
+    /// Bearing standard deviation, degrees.
+    pub sigma_alpha_deg: Option<f64>,
+}
+
+/// Why a sensor override string or its result is refused.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum SensorOverrideError {
+    /// Nothing was written.
+    #[error("empty sensor override: expected key=value[,key=value...] with keys {}", SensorOverrides::KEYS.join(", "))]
+    Empty,
+    /// An item without `=`.
+    #[error("{item:?} is not key=value (keys: {})", SensorOverrides::KEYS.join(", "))]
+    NotKeyValue {
+        /// The item as written.
+        item: String,
+    },
+    /// A key that is not one of [`SensorOverrides::KEYS`].
+    #[error("unknown key {key:?}: expected one of {}", SensorOverrides::KEYS.join(", "))]
+    UnknownKey {
+        /// The key as written.
+        key: String,
+    },
+    /// A value that does not parse as a number.
+    #[error("{key} = {value:?} is not a number")]
+    NotANumber {
+        /// The key.
+        key: &'static str,
+        /// The value as written.
+        value: String,
+    },
+    /// A key given twice.
+    #[error("{key} is given twice")]
+    Duplicate {
+        /// The key.
+        key: &'static str,
+    },
+    /// The model after the overrides fails [`SensorModel::validate`]; the key and value are in
+    /// the override's units.
+    #[error("{key} = {value}{}: {reason}", if *.from_base { " (the base model's)" } else { "" })]
+    Invalid {
+        /// The offending key.
+        key: &'static str,
+        /// Its value, in the key's unit.
+        value: f64,
+        /// Whether the value is the base model's rather than an override.
+        from_base: bool,
+        /// What is wrong with it.
+        reason: &'static str,
+    },
+    /// Any other refusal of [`SensorModel::validate`].
+    #[error(transparent)]
+    Model(IcpError),
+}
+
+impl SensorOverrides {
+    /// The keys, in the order of [`SensorModel`]'s fields.
+    pub const KEYS: [&'static str; 3] = ["sigma_r_const_m", "sigma_r_per_m", "sigma_alpha_deg"];
+
+    /// `base` with the overridden σ replaced, if the result is a valid model
+    /// ([`SensorModel::validate`]).
+    pub fn apply(&self, base: SensorModel) -> Result<SensorModel, SensorOverrideError> {
+        let model = SensorModel {
+            sigma_r_const_m: self.sigma_r_const_m.unwrap_or(base.sigma_r_const_m),
+            sigma_r_per_m: self.sigma_r_per_m.unwrap_or(base.sigma_r_per_m),
+            sigma_alpha_rad: self
+                .sigma_alpha_deg
+                .map_or(base.sigma_alpha_rad, f64::to_radians),
+        };
+        match model.validate() {
+            Ok(()) => Ok(model),
+            Err(IcpError::InvalidParameter { name, reason, .. }) => {
+                let (key, given, base_value) = match name {
+                    "sigma_r_const_m" => (name, self.sigma_r_const_m, base.sigma_r_const_m),
+                    "sigma_r_per_m" => (name, self.sigma_r_per_m, base.sigma_r_per_m),
+                    _ => (
+                        "sigma_alpha_deg",
+                        self.sigma_alpha_deg,
+                        base.sigma_alpha_rad.to_degrees(),
+                    ),
+                };
+                Err(SensorOverrideError::Invalid {
+                    key,
+                    value: given.unwrap_or(base_value),
+                    from_base: given.is_none(),
+                    reason,
+                })
+            }
+            Err(other) => Err(SensorOverrideError::Model(other)),
+        }
+    }
+}
+
+impl std::str::FromStr for SensorOverrides {
+    type Err = SensorOverrideError;
+
+    fn from_str(text: &str) -> Result<Self, SensorOverrideError> {
+        if text.trim().is_empty() {
+            return Err(SensorOverrideError::Empty);
+        }
+        let mut out = Self::default();
+        for item in text.split(',') {
+            let (key, value) =
+                item.split_once('=')
+                    .ok_or_else(|| SensorOverrideError::NotKeyValue {
+                        item: item.trim().to_owned(),
+                    })?;
+            let key = key.trim();
+            let (key, slot) = match key {
+                "sigma_r_const_m" => ("sigma_r_const_m", &mut out.sigma_r_const_m),
+                "sigma_r_per_m" => ("sigma_r_per_m", &mut out.sigma_r_per_m),
+                "sigma_alpha_deg" => ("sigma_alpha_deg", &mut out.sigma_alpha_deg),
+                other => {
+                    return Err(SensorOverrideError::UnknownKey {
+                        key: other.to_owned(),
+                    })
+                }
+            };
+            let value = value.trim();
+            let number = value
+                .parse::<f64>()
+                .map_err(|_| SensorOverrideError::NotANumber {
+                    key,
+                    value: value.to_owned(),
+                })?;
+            if slot.replace(number).is_some() {
+                return Err(SensorOverrideError::Duplicate { key });
+            }
+        }
+        Ok(out)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,5 +448,77 @@ mod tests {
                 "{m:?}"
             );
         }
+    }
+
+    #[test]
+    fn sensor_overrides_set_any_subset_over_the_base() {
+        let base = SensorModel::sweep();
+        let all: SensorOverrides = " sigma_r_const_m=0.01, sigma_r_per_m=0 ,sigma_alpha_deg=0.25"
+            .parse()
+            .unwrap();
+        let m = all.apply(base).unwrap();
+        assert_eq!((m.sigma_r_const_m, m.sigma_r_per_m), (0.01, 0.0));
+        assert_eq!(m.sigma_alpha_rad, 0.25f64.to_radians());
+        let one: SensorOverrides = "sigma_alpha_deg=1".parse().unwrap();
+        assert_eq!(
+            one.apply(base).unwrap(),
+            SensorModel {
+                sigma_alpha_rad: 1f64.to_radians(),
+                ..base
+            }
+        );
+        assert_eq!(SensorOverrides::default().apply(base).unwrap(), base);
+    }
+
+    #[test]
+    fn sensor_override_errors_name_the_key_and_the_problem() {
+        let keys = "sigma_r_const_m, sigma_r_per_m, sigma_alpha_deg";
+        let error = |text: &str| match text.parse::<SensorOverrides>() {
+            Ok(o) => o
+                .apply(SensorModel::sweep())
+                .map_or_else(|e| e.to_string(), |m| format!("no error: {m:?}")),
+            Err(e) => e.to_string(),
+        };
+        let cases = [
+            (
+                "",
+                format!("empty sensor override: expected key=value[,key=value...] with keys {keys}"),
+            ),
+            (" ", format!("empty sensor override: expected key=value[,key=value...] with keys {keys}")),
+            ("sigma_alpha_deg", format!("\"sigma_alpha_deg\" is not key=value (keys: {keys})")),
+            ("sigma_alpha_deg=1,", format!("\"\" is not key=value (keys: {keys})")),
+            ("sigma_alpha_rad=0.01", format!("unknown key \"sigma_alpha_rad\": expected one of {keys}")),
+            ("sigma_r_per_m=abc", "sigma_r_per_m = \"abc\" is not a number".to_owned()),
+            ("sigma_r_per_m=", "sigma_r_per_m = \"\" is not a number".to_owned()),
+            ("sigma_alpha_deg=1,sigma_alpha_deg=2", "sigma_alpha_deg is given twice".to_owned()),
+            ("sigma_alpha_deg=-1", "sigma_alpha_deg = -1: must be finite and non-negative".to_owned()),
+            ("sigma_r_const_m=inf", "sigma_r_const_m = inf: must be finite and non-negative".to_owned()),
+            ("sigma_r_const_m=NaN", "sigma_r_const_m = NaN: must be finite and non-negative".to_owned()),
+            (
+                "sigma_alpha_deg=0",
+                "sigma_alpha_deg = 0: must be positive: a zero bearing error makes the weights infinite".to_owned(),
+            ),
+            (
+                "sigma_r_per_m=0",
+                "sigma_r_per_m = 0: sigma_r(r) must be positive: set sigma_r_const_m or sigma_r_per_m".to_owned(),
+            ),
+        ];
+        for (text, expected) in cases {
+            assert_eq!(error(text), expected, "{text:?}");
+        }
+        // A bad value of the base model is named as the base's.
+        let bad_base = SensorModel {
+            sigma_r_const_m: -1.0,
+            ..SensorModel::sweep()
+        };
+        let e = "sigma_alpha_deg=1"
+            .parse::<SensorOverrides>()
+            .unwrap()
+            .apply(bad_base)
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "sigma_r_const_m = -1 (the base model's): must be finite and non-negative"
+        );
     }
 }
