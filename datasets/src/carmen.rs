@@ -2,18 +2,28 @@
 //!
 //! `FLASER n r_1 … r_n x y θ odom_x odom_y odom_θ ipc_timestamp ipc_hostname logger_timestamp`
 //!
-//! Ranges are metres; `x y θ` is the laser pose (in corrected logs, the reference); bearings
-//! span the field of view counter-clockwise from its right edge, `n` beams over 180° by default.
-//! A reading at or beyond the maximum range is a no-return. Other message types (`ODOM`,
-//! `PARAM`, `RLASER`, …) and `#` comments are skipped and counted.
+//! Ranges are metres; bearings span the field of view counter-clockwise from its right edge,
+//! `n` beams over 180° by default. A reading at or beyond the maximum range is a no-return.
+//! Other message types (`ODOM`, `PARAM`, `RLASER`, …) and `#` comments are skipped and counted.
+//!
+//! `x y θ` is the laser's own pose (so the scanner offset is the identity): the reference, by
+//! default [`ReferenceKind::SlamCorrected`] as in the public "corrected" logs
+//! ([`CarmenOptions::reference_kind`] says otherwise for a raw log, whose poses are
+//! odometry). `odom_x odom_y odom_θ` is the robot's odometry pose, kept as the odometry
+//! channel; the laser sits `robot_frontlaser_offset` ahead of it (a `PARAM` line, not read).
+//! Some corrected logs overwrite the odometry with the corrected poses (`aces`): the loader
+//! then warns that there is no independent odometry
+//! ([`LoadWarning::OdometryEqualsReference`](crate::LoadWarning)).
 
 use std::io::{BufRead, BufReader, Read};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use icp_core::{BearingSense, Scan, SensorModel};
 use sha2::{Digest, Sha256};
 
-use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
+use crate::dataset::{
+    nominal_dt_s, Dataset, FileProvenance, Pose2, Provenance, ReferenceKind, ReferencePose,
+};
 use crate::DatasetError;
 
 /// The laser's angular layout and range limit.
@@ -23,8 +33,11 @@ pub struct CarmenOptions {
     pub fov_deg: f64,
     /// Readings at or beyond this range are no-returns, metres.
     pub max_range_m: f64,
-    /// The sensor model for the weights (default: the Sweep model).
+    /// The sensor model for the weights (default: [`SICK_LMS2XX`]).
     pub sensor: SensorModel,
+    /// What the logged laser poses are (default: [`ReferenceKind::SlamCorrected`], the
+    /// public "corrected" logs; [`ReferenceKind::Odometry`] for a raw log).
+    pub reference_kind: ReferenceKind,
 }
 
 impl Default for CarmenOptions {
@@ -32,10 +45,31 @@ impl Default for CarmenOptions {
         Self {
             fov_deg: 180.0,
             max_range_m: 50.0,
-            sensor: SensorModel::sweep(),
+            sensor: SICK_LMS2XX,
+            reference_kind: ReferenceKind::SlamCorrected,
         }
     }
 }
+
+/// A SICK LMS 2xx-class laser, the scanner of the classic CARMEN logs (180 or 181 beams at
+/// 1°, ranges to 50–80 m): `σ_r = 1 cm` at every range, `σ_α = 0.5°`.
+///
+/// - `σ_r`: the 10 mm range resolution of the LMS 2xx in the cm mode that ranges beyond 8 m
+///   need (81.92 m at 10 mm; Player `sicklms200` driver documentation), which is also the
+///   order of the statistical error (1σ) SICK states for its later families (LMS1xx 12 mm
+///   typical; LMS5xx 6–14 mm; SICK support article "Measurement Errors LMSxxx"). Constant, not
+///   proportional to the range as the Sweep's: at 20 m the Sweep model says 8.5 cm.
+/// - `σ_α`: the beam divergence stands for the bearing error here as for the Sweep. SICK gives
+///   4.6–11 mrad (0.26–0.63°) for the LMS5xx and 15 mrad (0.86°) for the LMS1xx (operating
+///   instructions, "Beam diameter"); 0.5° lies within that span.
+///
+/// The LMS 2xx technical description itself was not at hand when these were chosen; correct
+/// them for a known unit with `--sensor`.
+pub const SICK_LMS2XX: SensorModel = SensorModel {
+    sigma_r_const_m: 0.01,
+    sigma_r_per_m: 0.0,
+    sigma_alpha_rad: 0.5 * std::f64::consts::PI / 180.0,
+};
 
 /// What a parse skipped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -96,8 +130,16 @@ pub fn parse<R: Read>(
         options.max_range_m,
         options.max_range_m.is_finite() && options.max_range_m > 0.0,
     )?;
+    options
+        .sensor
+        .validate()
+        .map_err(|e| DatasetError::BadValue {
+            path: PathBuf::from("<sensor model>"),
+            what: e.to_string(),
+        })?;
     let mut scans = Vec::new();
     let mut reference = Vec::new();
+    let mut odometry = Vec::new();
     let mut counts = CarmenCounts::default();
     let at = |line: usize, what: String| DatasetError::Parse {
         path: path.to_path_buf(),
@@ -166,6 +208,11 @@ pub fn parse<R: Read>(
             .map(|k| (-0.5 * options.fov_deg + step * k as f64).to_radians())
             .collect();
         let (x_m, y_m, theta) = (num(n + 1, "x")?, num(n + 2, "y")?, num(n + 3, "theta")?);
+        odometry.push(Pose2 {
+            x_m: num(n + 4, "odom_x")?,
+            y_m: num(n + 5, "odom_y")?,
+            yaw_rad: num(n + 6, "odom_theta")?,
+        });
         let timestamp = num(n + 7, "ipc_timestamp")?;
         let scan = Scan::from_polar(&ranges, &bearings)
             .and_then(|s| s.with_timestamp(timestamp))
@@ -188,13 +235,7 @@ pub fn parse<R: Read>(
             ),
         });
     }
-    let mut dts: Vec<f64> = scans
-        .windows(2)
-        .filter_map(|w| Some(w[1].timestamp_s()? - w[0].timestamp_s()?))
-        .collect();
-    let dt_s = icp_core::robust::median_in_place(&mut dts)
-        .filter(|d| *d > 0.0)
-        .unwrap_or(1.0);
+    let (dt_s, assumed) = nominal_dt_s(&scans);
     Ok((
         Dataset {
             provenance: Provenance {
@@ -215,11 +256,16 @@ pub fn parse<R: Read>(
             },
             scans,
             reference: Some(reference),
+            reference_kind: Some(options.reference_kind),
+            odometry: Some(odometry),
+            scanner_offset: Some(Pose2::IDENTITY),
             reference_heading_sense: BearingSense::CounterClockwise,
             dt_s,
             sensor: options.sensor,
             bearing_sense: BearingSense::CounterClockwise,
-        },
+            warnings: assumed.into_iter().collect(),
+        }
+        .checked(),
         counts,
     ))
 }

@@ -1,7 +1,9 @@
 //! Our own plain-text format, so anyone can bring their data (see `datasets/README.md`): a
 //! directory with `scans.csv` (one row per reading, optionally with the true surface normal
-//! behind it), optionally `poses.csv` (one reference pose per scan) and `dataset.json` (name,
-//! timing, senses, sensor model).
+//! behind it), optionally `poses.csv` (one reference pose per scan), `odometry.csv` (one
+//! odometry pose per scan: `scan,x_m,y_m,yaw_rad`, a rigid pose in the odometry's own frame,
+//! yaw from `+x` towards `+y`) and `dataset.json` (name, timing, senses, sensor model, what the
+//! reference is, the scanner's offset).
 //!
 //! Numbers are written in Rust's shortest round-trip form, so a dataset written and read back
 //! is the same bit for bit.
@@ -15,7 +17,9 @@ use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
+use crate::dataset::{
+    nominal_dt_s, Dataset, FileProvenance, Pose2, Provenance, ReferenceKind, ReferencePose,
+};
 use crate::DatasetError;
 
 /// Readings, one row each: `scan,timestamp_s,range_m,bearing_rad`, optionally followed by
@@ -29,6 +33,9 @@ const SCAN_COLUMNS: [&str; 4] = ["scan", "timestamp_s", "range_m", "bearing_rad"
 const NORMAL_COLUMNS: [&str; 2] = ["true_normal_x", "true_normal_y"];
 /// Reference poses, one row per scan: `scan,x_m,y_m,heading_rad,scan_yaw_rad`.
 pub const POSES_FILE: &str = "poses.csv";
+/// Odometry poses, one row per scan: `scan,x_m,y_m,yaw_rad` (metres; radians from `+x`
+/// towards `+y`), in the odometry's own frame.
+pub const ODOMETRY_FILE: &str = "odometry.csv";
 /// Metadata.
 pub const META_FILE: &str = "dataset.json";
 
@@ -48,6 +55,14 @@ pub struct DatasetMeta {
     pub reference_heading_sense: Option<BearingSense>,
     /// Sensor error model (default: the Sweep model).
     pub sensor: Option<SensorModel>,
+    /// What `poses.csv` is (default, when there are poses: [`ReferenceKind::Unknown`], which
+    /// also reads files written before the field existed). Refused without `poses.csv`.
+    #[serde(default)]
+    pub reference_kind: Option<ReferenceKind>,
+    /// The scanner's pose in the frame of the point whose positions `poses.csv` gives
+    /// (default: unknown).
+    #[serde(default)]
+    pub scanner_offset: Option<Pose2>,
 }
 
 #[derive(Deserialize)]
@@ -94,6 +109,112 @@ struct PoseRow {
     y_m: f64,
     heading_rad: f64,
     scan_yaw_rad: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct OdometryRow {
+    scan: usize,
+    x_m: f64,
+    y_m: f64,
+    yaw_rad: f64,
+}
+
+/// A row of a file with one row per scan.
+trait PerScanRow: serde::de::DeserializeOwned {
+    /// The file's columns.
+    const COLUMNS: &'static [&'static str];
+    /// What a row holds, for messages.
+    const WHAT: &'static str;
+    /// What the row converts to.
+    type Value;
+    /// The scan the row is for.
+    fn scan(&self) -> usize;
+    /// The row's value, if every number in it is finite.
+    fn value(&self) -> Option<Self::Value>;
+}
+
+impl PerScanRow for PoseRow {
+    const COLUMNS: &'static [&'static str] = &["scan", "x_m", "y_m", "heading_rad", "scan_yaw_rad"];
+    const WHAT: &'static str = "pose";
+    type Value = ReferencePose;
+    fn scan(&self) -> usize {
+        self.scan
+    }
+    fn value(&self) -> Option<ReferencePose> {
+        [
+            self.x_m,
+            self.y_m,
+            self.heading_rad,
+            self.scan_yaw_rad.unwrap_or(0.0),
+        ]
+        .iter()
+        .all(|v| v.is_finite())
+        .then_some(ReferencePose {
+            x_m: self.x_m,
+            y_m: self.y_m,
+            heading_rad: self.heading_rad,
+            scan_yaw_rad: self.scan_yaw_rad,
+        })
+    }
+}
+
+impl PerScanRow for OdometryRow {
+    const COLUMNS: &'static [&'static str] = &["scan", "x_m", "y_m", "yaw_rad"];
+    const WHAT: &'static str = "odometry pose";
+    type Value = Pose2;
+    fn scan(&self) -> usize {
+        self.scan
+    }
+    fn value(&self) -> Option<Pose2> {
+        let pose = Pose2 {
+            x_m: self.x_m,
+            y_m: self.y_m,
+            yaw_rad: self.yaw_rad,
+        };
+        [pose.x_m, pose.y_m, pose.yaw_rad]
+            .iter()
+            .all(|v| v.is_finite())
+            .then_some(pose)
+    }
+}
+
+/// The values of a file with one row per scan: rows `0, 1, 2, …`, one per each of the
+/// `n_scans` scans, every number finite.
+fn per_scan<T: PerScanRow, R: Read>(
+    path: &Path,
+    reader: R,
+    n_scans: usize,
+) -> Result<Vec<T::Value>, DatasetError> {
+    let mut out = Vec::with_capacity(n_scans);
+    for (line, row) in rows::<T, _>(path, reader, T::COLUMNS, &[])? {
+        let bad = |what: String| DatasetError::Parse {
+            path: path.to_path_buf(),
+            line,
+            what,
+        };
+        if row.scan() != out.len() {
+            return Err(bad(format!(
+                "{} rows must run 0, 1, 2, …: expected scan {}, found {}",
+                T::WHAT,
+                out.len(),
+                row.scan()
+            )));
+        }
+        let value = row
+            .value()
+            .ok_or_else(|| bad(format!("non-finite {} for scan {}", T::WHAT, row.scan())))?;
+        out.push(value);
+    }
+    if out.len() != n_scans {
+        return Err(DatasetError::Shape {
+            path: path.to_path_buf(),
+            name: format!("{} rows", T::WHAT),
+            expected: format!("one per scan ({n_scans})"),
+            got: vec![out.len()],
+        });
+    }
+    Ok(out)
 }
 
 fn csv_error(path: &Path, e: &csv::Error) -> DatasetError {
@@ -192,15 +313,17 @@ pub fn load(dir: &Path) -> Result<Dataset, DatasetError> {
     let scans_path = dir.join(SCANS_FILE);
     let scans_bytes = read_file(&scans_path)?;
     let mut files = vec![provenance_of(scans_path.clone(), &scans_bytes)];
-    let poses_path = dir.join(POSES_FILE);
-    let poses_bytes = if poses_path.is_file() {
-        Some(read_file(&poses_path)?)
-    } else {
-        None
+    let mut optional = |name: &str| -> Result<(PathBuf, Option<Vec<u8>>), DatasetError> {
+        let path = dir.join(name);
+        if !path.is_file() {
+            return Ok((path, None));
+        }
+        let bytes = read_file(&path)?;
+        files.push(provenance_of(path.clone(), &bytes));
+        Ok((path, Some(bytes)))
     };
-    if let Some(b) = &poses_bytes {
-        files.push(provenance_of(poses_path.clone(), b));
-    }
+    let (poses_path, poses_bytes) = optional(POSES_FILE)?;
+    let (odometry_path, odometry_bytes) = optional(ODOMETRY_FILE)?;
     let meta_path = dir.join(META_FILE);
     let meta = if meta_path.is_file() {
         let bytes = read_file(&meta_path)?;
@@ -223,6 +346,9 @@ pub fn load(dir: &Path) -> Result<Dataset, DatasetError> {
     let mut ds = parse(
         (&scans_path, &scans_bytes[..]),
         poses_bytes.as_deref().map(|b| (poses_path.as_path(), b)),
+        odometry_bytes
+            .as_deref()
+            .map(|b| (odometry_path.as_path(), b)),
         &meta,
         &default_name,
     )?;
@@ -230,10 +356,12 @@ pub fn load(dir: &Path) -> Result<Dataset, DatasetError> {
     Ok(ds)
 }
 
-/// Parses the readings and (optionally) the poses; the paths name them in errors.
+/// Parses the readings and (optionally) the reference and odometry poses; the paths name them
+/// in errors.
 pub fn parse<R: Read>(
     scans: (&Path, R),
     poses: Option<(&Path, R)>,
+    odometry: Option<(&Path, R)>,
     meta: &DatasetMeta,
     default_name: &str,
 ) -> Result<Dataset, DatasetError> {
@@ -311,81 +439,44 @@ pub fn parse<R: Read>(
     if let Some((id, ts)) = current {
         out.push(finish(id, ts, &ranges, &bearings, &normals)?);
     }
-    let reference = match poses {
-        None => None,
-        Some((poses_path, reader)) => {
-            let mut poses = Vec::with_capacity(out.len());
-            for (line, row) in rows::<PoseRow, _>(
-                poses_path,
-                reader,
-                &["scan", "x_m", "y_m", "heading_rad", "scan_yaw_rad"],
-                &[],
-            )? {
-                let bad = |what: String| DatasetError::Parse {
-                    path: poses_path.to_path_buf(),
-                    line,
-                    what,
-                };
-                if row.scan != poses.len() {
-                    return Err(bad(format!(
-                        "pose rows must run 0, 1, 2, …: expected scan {}, found {}",
-                        poses.len(),
-                        row.scan
-                    )));
-                }
-                let values = [
-                    row.x_m,
-                    row.y_m,
-                    row.heading_rad,
-                    row.scan_yaw_rad.unwrap_or(0.0),
-                ];
-                if values.iter().any(|v| !v.is_finite()) {
-                    return Err(bad(format!("non-finite pose for scan {}", row.scan)));
-                }
-                poses.push(ReferencePose {
-                    x_m: row.x_m,
-                    y_m: row.y_m,
-                    heading_rad: row.heading_rad,
-                    scan_yaw_rad: row.scan_yaw_rad,
-                });
-            }
-            if poses.len() != out.len() {
-                return Err(DatasetError::Shape {
-                    path: poses_path.to_path_buf(),
-                    name: "pose rows".into(),
-                    expected: format!("one per scan ({})", out.len()),
-                    got: vec![poses.len()],
-                });
-            }
-            Some(poses)
+    let reference = poses
+        .map(|(path, reader)| per_scan::<PoseRow, _>(path, reader, out.len()))
+        .transpose()?;
+    let odometry = odometry
+        .map(|(path, reader)| per_scan::<OdometryRow, _>(path, reader, out.len()))
+        .transpose()?;
+    let reference_kind = match (&reference, meta.reference_kind) {
+        (Some(_), kind) => Some(kind.unwrap_or(ReferenceKind::Unknown)),
+        (None, None) => None,
+        (None, Some(kind)) => {
+            return Err(DatasetError::BadValue {
+                path: META_FILE.into(),
+                what: format!(
+                    "reference_kind is {} but there is no {POSES_FILE}",
+                    serde_json::to_string(&kind).unwrap_or_default()
+                ),
+            })
         }
     };
+    if let Some(offset) = meta.scanner_offset {
+        if [offset.x_m, offset.y_m, offset.yaw_rad]
+            .iter()
+            .any(|v| !v.is_finite())
+        {
+            return Err(DatasetError::BadValue {
+                path: META_FILE.into(),
+                what: format!("non-finite scanner_offset: {offset:?}"),
+            });
+        }
+    }
     let sensor = meta.sensor.unwrap_or_default();
     sensor.validate().map_err(|e| DatasetError::BadValue {
         path: META_FILE.into(),
         what: e.to_string(),
     })?;
-    let dt_s = match meta.dt_s {
-        Some(dt) if dt.is_finite() && dt > 0.0 => dt,
-        Some(dt) => {
-            return Err(DatasetError::InvalidParameter {
-                name: "dt_s",
-                value: dt,
-                reason: "must be finite and positive",
-            })
-        }
-        None => {
-            let mut steps: Vec<f64> = out
-                .windows(2)
-                .filter_map(|w| Some(w[1].timestamp_s()? - w[0].timestamp_s()?))
-                .collect();
-            icp_core::robust::median_in_place(&mut steps)
-                .filter(|d| *d > 0.0)
-                .unwrap_or(1.0)
-        }
-    };
+    let (dt_s, assumed) = nominal_dt_s(&out);
     let name = meta.name.clone().unwrap_or_else(|| default_name.to_owned());
-    Ok(Dataset {
+    let mut ds = Dataset {
         provenance: Provenance {
             description: meta
                 .description
@@ -396,17 +487,26 @@ pub fn parse<R: Read>(
         },
         scans: out,
         reference,
+        reference_kind,
+        odometry,
+        scanner_offset: meta.scanner_offset,
         reference_heading_sense: meta
             .reference_heading_sense
             .unwrap_or(BearingSense::CounterClockwise),
         dt_s,
         sensor,
         bearing_sense: meta.bearing_sense.unwrap_or(BearingSense::CounterClockwise),
-    })
+        warnings: assumed.into_iter().collect(),
+    };
+    if let Some(dt) = meta.dt_s {
+        ds.set_dt_s(dt)?;
+    }
+    Ok(ds.checked())
 }
 
-/// Writes `ds` as a dataset directory (creating it). Each scan's no-returns are written as
-/// rows with empty range and bearing, so the counts survive the round trip. The true-normal
+/// Writes `ds` as a dataset directory (creating it): `scans.csv`, `dataset.json`, and
+/// `poses.csv` and `odometry.csv` when it has those channels. Each scan's no-returns are
+/// written as rows with empty range and bearing, so the counts survive the round trip. The true-normal
 /// columns are written when any scan carries true normals, empty where a normal is unknown.
 pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
     std::fs::create_dir_all(dir).map_err(|source| DatasetError::Io {
@@ -445,7 +545,7 @@ pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
     }
     write_file(&dir.join(SCANS_FILE), s.as_bytes())?;
     if let Some(poses) = &ds.reference {
-        let mut s = String::from("scan,x_m,y_m,heading_rad,scan_yaw_rad\n");
+        let mut s = format!("{}\n", PoseRow::COLUMNS.join(","));
         for (k, p) in poses.iter().enumerate() {
             let _ = writeln!(
                 s,
@@ -458,6 +558,13 @@ pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
         }
         write_file(&dir.join(POSES_FILE), s.as_bytes())?;
     }
+    if let Some(poses) = &ds.odometry {
+        let mut s = format!("{}\n", OdometryRow::COLUMNS.join(","));
+        for (k, p) in poses.iter().enumerate() {
+            let _ = writeln!(s, "{k},{},{},{}", p.x_m, p.y_m, p.yaw_rad);
+        }
+        write_file(&dir.join(ODOMETRY_FILE), s.as_bytes())?;
+    }
     let meta = DatasetMeta {
         name: Some(ds.provenance.name.clone()),
         description: Some(ds.provenance.description.clone()),
@@ -465,6 +572,8 @@ pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
         bearing_sense: Some(ds.bearing_sense),
         reference_heading_sense: Some(ds.reference_heading_sense),
         sensor: Some(ds.sensor),
+        reference_kind: ds.reference_kind,
+        scanner_offset: ds.scanner_offset,
     };
     let json = serde_json::to_string_pretty(&meta).map_err(|e| DatasetError::BadValue {
         path: dir.join(META_FILE),

@@ -5,6 +5,11 @@
 //! - `ranges.mat`: `ranges_baza`, 750 × 177, ranges in metres (NaN or 0 = no return);
 //! - `gps.mat`: `slam_pose`, 177 × 3: x, y (metres, local frame) and heading (radians).
 //!
+//! The reference is [`ReferenceKind::GnssPositions`]: despite its name, `slam_pose` holds the
+//! GNSS RTK positions and a heading, which are not one rigid frame (the positions advance
+//! along +x whatever the heading). The files have no odometry, and name no offset between the
+//! GNSS antenna and the scanner, so [`Dataset::scanner_offset`] is unknown.
+//!
 //! The files carry no timestamps: consecutive reference positions are about 1.24 m apart at
 //! about 1.2 m/s, so the nominal spacing is 1.0 s ([`MarinaOptions::dt_s`]).
 
@@ -15,7 +20,7 @@ use std::path::{Path, PathBuf};
 use icp_core::{BearingSense, Scan, SensorModel};
 use sha2::{Digest, Sha256};
 
-use crate::dataset::{Dataset, FileProvenance, Provenance, ReferencePose};
+use crate::dataset::{Dataset, FileProvenance, Provenance, ReferenceKind, ReferencePose};
 use crate::DatasetError;
 
 /// The three files and the variables they hold.
@@ -246,11 +251,16 @@ fn assemble(
         },
         scans,
         reference: Some(reference),
+        reference_kind: Some(ReferenceKind::GnssPositions),
+        odometry: None,
+        scanner_offset: None,
         reference_heading_sense: REFERENCE_HEADING_SENSE,
         dt_s: options.dt_s,
         sensor: options.sensor,
         bearing_sense: BEARING_SENSE,
-    })
+        warnings: Vec::new(),
+    }
+    .checked())
 }
 
 /// The sense of the scanner's bearings. The files only fix it *relative* to the reference

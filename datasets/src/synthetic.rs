@@ -1,5 +1,6 @@
 //! A deterministic synthetic harbour basin scanned by a simulated Scanse Sweep, with exact
-//! ground truth for every scan.
+//! ground truth for every scan ([`ReferenceKind::GroundTruth`]: the scanner's own pose, so the
+//! scanner offset is the identity). There is no odometry channel.
 //!
 //! The world is built around the vessel's track, like the Gdynia yacht basin of the paper:
 //! concrete quays on both sides (polylines following the track at 14 m to port and 11 m to
@@ -21,7 +22,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
-use crate::dataset::{Dataset, Provenance, ReferencePose};
+use crate::dataset::{Dataset, Pose2, Provenance, ReferenceKind, ReferencePose};
 use crate::DatasetError;
 
 /// A heading change spread over a range of scans (a smooth cosine ramp).
@@ -695,11 +696,16 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         },
         scans,
         reference: Some(reference),
+        reference_kind: Some(ReferenceKind::GroundTruth),
+        odometry: None,
+        scanner_offset: Some(Pose2::IDENTITY),
         reference_heading_sense: BearingSense::Clockwise,
         dt_s: scenario.dt_s,
         sensor: sc.sensor,
         bearing_sense: BearingSense::CounterClockwise,
-    })
+        warnings: Vec::new(),
+    }
+    .checked())
 }
 
 #[cfg(test)]

@@ -4,10 +4,16 @@ use std::io::Write;
 use std::path::Path;
 
 use datasets::carmen::{self, CarmenOptions};
-use datasets::DatasetError;
+use datasets::{DatasetError, LoadWarning, Pose2, PoseChannel, ReferenceKind};
 
-/// A square room 10 m wide seen by a 181-beam, 180° laser at pose (x, y, θ).
+/// A square room 10 m wide seen by a 181-beam, 180° laser at pose (x, y, θ), with the
+/// odometry fields a copy of the pose.
 fn flaser(x: f64, y: f64, theta: f64, t: f64) -> String {
+    flaser_odom((x, y, theta), (x, y, theta), t)
+}
+
+/// The room seen from `(x, y, θ)`, with the odometry fields `odom`.
+fn flaser_odom((x, y, theta): (f64, f64, f64), odom: (f64, f64, f64), t: f64) -> String {
     let n = 181;
     let mut ranges = Vec::new();
     for k in 0..n {
@@ -22,8 +28,9 @@ fn flaser(x: f64, y: f64, theta: f64, t: f64) -> String {
         }
         ranges.push(format!("{r:.3}"));
     }
+    let (ox, oy, ot) = odom;
     format!(
-        "FLASER {n} {} {x} {y} {theta} {x} {y} {theta} {t} localhost {t}",
+        "FLASER {n} {} {x} {y} {theta} {ox} {oy} {ot} {t} localhost {t}",
         ranges.join(" ")
     )
 }
@@ -155,6 +162,14 @@ fn broken_lines_name_the_file_line_and_field() {
             good.replacen("0 0 0 0 0 0 1 localhost", "0 0 nan 0 0 0 1 localhost", 1),
             "theta is not finite",
         ),
+        (
+            good.replacen("0 0 0 0 0 0 1 localhost", "0 0 0 0 x 0 1 localhost", 1),
+            "odom_y is not a number: \"x\"",
+        ),
+        (
+            good.replacen("0 0 0 0 0 0 1 localhost", "0 0 0 0 0 inf 1 localhost", 1),
+            "odom_theta is not finite",
+        ),
     ];
     for (log, expected) in cases {
         let e = parse_err(&format!("# header\n{log}"));
@@ -192,4 +207,193 @@ fn broken_lines_name_the_file_line_and_field() {
         invalid_utf8,
         Err(DatasetError::Parse { line: 2, .. })
     ));
+}
+
+fn parse_log(lines: &[String]) -> datasets::Dataset {
+    carmen::parse(
+        Path::new("room.log"),
+        lines.join("\n").as_bytes(),
+        &CarmenOptions::default(),
+    )
+    .unwrap()
+    .0
+}
+
+/// The odometry fields are the odometry channel; a log whose odometry is a copy of its poses
+/// says it has no independent odometry. The poses are the laser's own (offset: identity),
+/// SLAM-corrected by default, and the laser is a SICK LMS 2xx.
+#[test]
+fn odometry_is_read_and_a_copy_of_the_poses_is_flagged() {
+    let (ds, _) = carmen::parse(
+        Path::new("room.log"),
+        small_log().as_bytes(),
+        &CarmenOptions::default(),
+    )
+    .unwrap();
+    let odometry = ds.odometry.as_ref().unwrap();
+    assert_eq!(
+        odometry[1],
+        Pose2 {
+            x_m: 0.3,
+            y_m: 0.1,
+            yaw_rad: 0.05
+        }
+    );
+    assert_eq!(ds.reference_kind, Some(ReferenceKind::SlamCorrected));
+    assert_eq!(ds.scanner_offset, Some(Pose2::IDENTITY));
+    assert_eq!(ds.sensor, carmen::SICK_LMS2XX);
+    assert_eq!(
+        ds.warnings,
+        vec![LoadWarning::OdometryEqualsReference { steps: 2 }]
+    );
+    assert_eq!(
+        ds.warnings[0].to_string(),
+        "the odometry equals the reference (all 2 steps within 1 mm and 0.05°): no independent odometry"
+    );
+    // The same motion in another odometry frame (turned and moved) is still the same motion.
+    let turned = |x: f64, y: f64, th: f64| (10.0 - y, 5.0 + x, th + std::f64::consts::FRAC_PI_2);
+    let poses = [(0.0, 0.0, 0.0), (0.3, 0.1, 0.05), (0.6, 0.15, 0.1)];
+    let lines: Vec<String> = poses
+        .iter()
+        .enumerate()
+        .map(|(k, &(x, y, th))| flaser_odom((x, y, th), turned(x, y, th), k as f64))
+        .collect();
+    assert_eq!(
+        parse_log(&lines).warnings,
+        vec![LoadWarning::OdometryEqualsReference { steps: 2 }]
+    );
+}
+
+/// Odometry that differs from the poses by 2 cm at one step is independent: no warning.
+#[test]
+fn independent_odometry_is_not_flagged() {
+    let lines = [
+        flaser(0.0, 0.0, 0.0, 1.0),
+        flaser_odom((0.3, 0.1, 0.05), (0.32, 0.1, 0.05), 2.0),
+        flaser_odom((0.6, 0.15, 0.1), (0.62, 0.15, 0.1), 3.0),
+    ];
+    let ds = parse_log(&lines);
+    assert_eq!(ds.odometry.as_ref().unwrap()[2].x_m, 0.62);
+    assert_eq!(ds.warnings, vec![]);
+}
+
+/// Median steps beyond 2 m or 5° are flagged, measured on the reference.
+#[test]
+fn large_steps_are_flagged() {
+    let turning: Vec<String> = (0..5)
+        .map(|k| {
+            flaser(
+                0.1 * k as f64,
+                0.0,
+                (20.0 * k as f64).to_radians(),
+                k as f64,
+            )
+        })
+        .collect();
+    let ds = parse_log(&turning);
+    let Some(LoadWarning::LargeSteps {
+        median_step_m,
+        median_turn_deg,
+        measured_on,
+    }) = ds.warnings.last()
+    else {
+        panic!("{:?}", ds.warnings)
+    };
+    assert!((median_step_m - 0.1).abs() < 1e-9 && (median_turn_deg - 20.0).abs() < 1e-9);
+    assert_eq!(*measured_on, PoseChannel::Reference);
+    assert_eq!(
+        ds.warnings.last().unwrap().to_string(),
+        "median step 0.10 m / 20.0° between consecutive scans (reference): beyond the 2 m / 5° \
+         an identity start is trusted with; start from a better guess (independent odometry, a \
+         global search)"
+    );
+    let striding: Vec<String> = [-3.0, 0.0, 3.0, 0.5]
+        .iter()
+        .enumerate()
+        .map(|(k, &x)| flaser(x, 0.0, 0.0, k as f64))
+        .collect();
+    assert!(matches!(
+        parse_log(&striding).warnings.last(),
+        Some(LoadWarning::LargeSteps { median_step_m, .. }) if *median_step_m == 3.0
+    ));
+    // The small log's 0.3 m / 2.9° steps are not.
+    assert!(!parse_log(&[small_log()])
+        .warnings
+        .iter()
+        .any(|w| matches!(w, LoadWarning::LargeSteps { .. })));
+}
+
+/// Timestamps that give no positive step leave the spacing assumed, and say so until one is
+/// given; timestamps that go back are flagged.
+#[test]
+fn timestamp_problems_are_flagged() {
+    let still: Vec<String> = (0..3)
+        .map(|k| flaser(0.1 * k as f64, 0.0, 0.0, 7.0))
+        .collect();
+    let mut ds = parse_log(&still);
+    assert_eq!(ds.dt_s, 1.0);
+    assert!(ds
+        .warnings
+        .contains(&LoadWarning::AssumedScanSpacing { dt_s: 1.0 }));
+    assert!(ds.warnings.contains(&LoadWarning::NonIncreasingTimestamps {
+        pairs: 2,
+        first_scan: 0
+    }));
+    assert!(matches!(
+        ds.set_dt_s(-0.5),
+        Err(DatasetError::InvalidParameter { name: "dt_s", .. })
+    ));
+    ds.set_dt_s(0.5).unwrap();
+    assert_eq!(ds.dt_s, 0.5);
+    assert!(!ds
+        .warnings
+        .iter()
+        .any(|w| matches!(w, LoadWarning::AssumedScanSpacing { .. })));
+    let back: Vec<String> = [100.0, 100.2, 100.1, 100.3]
+        .iter()
+        .enumerate()
+        .map(|(k, &t)| flaser(0.1 * k as f64, 0.0, 0.0, t))
+        .collect();
+    let w = parse_log(&back).warnings;
+    let expected = LoadWarning::NonIncreasingTimestamps {
+        pairs: 1,
+        first_scan: 1,
+    };
+    assert!(w.contains(&expected), "{w:?}");
+    assert_eq!(
+        expected.to_string(),
+        "timestamps do not increase at 1 consecutive pair(s), first at scan 1 → 2: those pairs \
+         have no usable time step"
+    );
+}
+
+/// The public `aces` log (read in place from `$ICP_DATA_DIR/carmen/`, skipped when absent):
+/// a corrected log whose odometry fields repeat the poses, with median steps of 0.97 m and
+/// 10.6°.
+#[test]
+fn aces_has_no_independent_odometry_and_large_steps() {
+    use std::io::Write as _;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let path = std::env::var_os(datasets::marina::DATA_DIR_ENV)
+        .map(|d| root.join(d).join("carmen/aces.log.gz"))
+        .filter(|p| p.is_file());
+    let Some(path) = path else {
+        let _ = writeln!(
+            std::io::stderr(),
+            "SKIPPED (aces log absent): set ICP_DATA_DIR to a folder holding carmen/aces.log.gz"
+        );
+        return;
+    };
+    let ds = carmen::load(&path, &CarmenOptions::default()).unwrap();
+    assert_eq!(ds.scans.len(), 440);
+    let [LoadWarning::OdometryEqualsReference { steps: 439 }, LoadWarning::LargeSteps {
+        median_step_m,
+        median_turn_deg,
+        measured_on: PoseChannel::Reference,
+    }] = ds.warnings[..]
+    else {
+        panic!("{:?}", ds.warnings)
+    };
+    assert!((median_step_m - 0.971).abs() < 1e-3, "{median_step_m}");
+    assert!((median_turn_deg - 10.607).abs() < 1e-3, "{median_turn_deg}");
 }

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use datasets::csvdir::{self, DatasetMeta};
 use datasets::synthetic::{generate, Scenario};
-use datasets::DatasetError;
+use datasets::{DatasetError, LoadWarning, Pose2, ReferenceKind};
 use icp_core::Scan;
 use nalgebra::Vector2;
 
@@ -35,6 +35,9 @@ fn written_and_read_back_bit_for_bit() {
     );
     assert_eq!(back.provenance.name, ds.provenance.name);
     assert_eq!(back.provenance.files.len(), 3);
+    assert_eq!(back.reference_kind, Some(ReferenceKind::GroundTruth));
+    assert_eq!(back.scanner_offset, Some(Pose2::IDENTITY));
+    assert_eq!((&back.odometry, &back.warnings), (&None, &vec![]));
     assert!(
         ds.scans.iter().all(|s| s.no_returns() > 0),
         "the round trip covers no-returns"
@@ -62,10 +65,20 @@ fn written_and_read_back_bit_for_bit() {
 }
 
 fn parse(scans: &str, poses: Option<&str>) -> Result<datasets::Dataset, DatasetError> {
+    parse_with(scans, poses, None, &DatasetMeta::default())
+}
+
+fn parse_with(
+    scans: &str,
+    poses: Option<&str>,
+    odometry: Option<&str>,
+    meta: &DatasetMeta,
+) -> Result<datasets::Dataset, DatasetError> {
     csvdir::parse(
         (Path::new("scans.csv"), scans.as_bytes()),
         poses.map(|p| (Path::new("poses.csv"), p.as_bytes())),
-        &DatasetMeta::default(),
+        odometry.map(|p| (Path::new("odometry.csv"), p.as_bytes())),
+        meta,
         "test",
     )
 }
@@ -236,4 +249,150 @@ fn broken_files_are_errors_naming_the_file_and_line() {
         csvdir::load(&tmp("csv_missing")),
         Err(DatasetError::Io { .. })
     ));
+}
+
+/// `odometry.csv` is optional: written when the dataset has odometry and read back bit for
+/// bit, with the reference kind and scanner offset of `dataset.json`.
+#[test]
+fn odometry_and_reference_metadata_round_trip() {
+    let mut ds = generate(&Scenario {
+        n_scans: 5,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let odometry: Vec<Pose2> = ds
+        .reference
+        .as_ref()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .map(|(k, p)| Pose2 {
+            x_m: p.x_m * 1.02 + 0.1,
+            y_m: p.y_m - 0.003 * k as f64,
+            yaw_rad: p.scan_yaw_rad.unwrap() + 0.001 * k as f64,
+        })
+        .collect();
+    ds.odometry = Some(odometry);
+    ds.reference_kind = Some(ReferenceKind::SlamCorrected);
+    ds.scanner_offset = Some(Pose2 {
+        x_m: 0.25,
+        y_m: -0.1,
+        yaw_rad: 0.01,
+    });
+    let dir = tmp("csv_odometry");
+    csvdir::write(&dir, &ds).unwrap();
+    let text = std::fs::read_to_string(dir.join("odometry.csv")).unwrap();
+    assert!(text.starts_with("scan,x_m,y_m,yaw_rad\n0,"), "{text}");
+    let back = csvdir::load(&dir).unwrap();
+    assert_eq!(back.odometry, ds.odometry);
+    assert_eq!(back.reference_kind, ds.reference_kind);
+    assert_eq!(back.scanner_offset, ds.scanner_offset);
+    assert_eq!(back.provenance.files.len(), 4);
+    assert_eq!(back.warnings, vec![], "independent odometry, small steps");
+}
+
+/// Without `reference_kind` (files written before it existed) the poses are of unknown kind;
+/// without poses there is no kind, and naming one is refused.
+#[test]
+fn reference_kind_defaults_and_refusals() {
+    let poses = "scan,x_m,y_m,heading_rad,scan_yaw_rad\n0,0,0,0,0\n1,0.5,0,0.1,0.1\n";
+    assert_eq!(
+        parse(GOOD, Some(poses)).unwrap().reference_kind,
+        Some(ReferenceKind::Unknown)
+    );
+    assert_eq!(parse(GOOD, None).unwrap().reference_kind, None);
+    let odometry_kind = DatasetMeta {
+        reference_kind: Some(ReferenceKind::Odometry),
+        ..DatasetMeta::default()
+    };
+    assert_eq!(
+        parse_with(GOOD, Some(poses), None, &odometry_kind)
+            .unwrap()
+            .reference_kind,
+        Some(ReferenceKind::Odometry)
+    );
+    assert_eq!(
+        parse_with(GOOD, None, None, &odometry_kind)
+            .unwrap_err()
+            .to_string(),
+        "dataset.json: reference_kind is \"odometry\" but there is no poses.csv"
+    );
+    let nan_offset = DatasetMeta {
+        scanner_offset: Some(Pose2 {
+            x_m: f64::NAN,
+            ..Pose2::IDENTITY
+        }),
+        ..DatasetMeta::default()
+    };
+    assert!(parse_with(GOOD, None, None, &nan_offset)
+        .unwrap_err()
+        .to_string()
+        .starts_with("dataset.json: non-finite scanner_offset"));
+    // A dataset.json of the old layout reads; the new fields parse by name.
+    let dir = tmp("csv_meta_fields");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("scans.csv"), GOOD).unwrap();
+    std::fs::write(dir.join("poses.csv"), poses).unwrap();
+    std::fs::write(
+        dir.join("dataset.json"),
+        "{\"name\": \"old\", \"dt_s\": 0.5}",
+    )
+    .unwrap();
+    let old = csvdir::load(&dir).unwrap();
+    assert_eq!(
+        (old.reference_kind, old.scanner_offset),
+        (Some(ReferenceKind::Unknown), None)
+    );
+    std::fs::write(
+        dir.join("dataset.json"),
+        "{\"reference_kind\": \"gnss_positions\", \"scanner_offset\": {\"x_m\": 1, \"y_m\": 0, \"yaw_rad\": 0}}",
+    )
+    .unwrap();
+    let new = csvdir::load(&dir).unwrap();
+    assert_eq!(new.reference_kind, Some(ReferenceKind::GnssPositions));
+    assert_eq!(new.scanner_offset.map(|o| o.x_m), Some(1.0));
+}
+
+#[test]
+fn broken_odometry_files_name_the_file_line_and_problem() {
+    let odometry = |text: &str| {
+        parse_with(GOOD, None, Some(text), &DatasetMeta::default())
+            .unwrap_err()
+            .to_string()
+    };
+    assert_eq!(
+        odometry("scan,x_m,y_m,yaw_rad\n0,0,0,0\n"),
+        "\"odometry pose rows\" in odometry.csv has shape [1], expected one per scan (2)"
+    );
+    assert_eq!(
+        odometry("scan,x_m,y_m,yaw_rad\n0,0,0,0\n1,0,nan,0\n"),
+        "odometry.csv:3: non-finite odometry pose for scan 1"
+    );
+    assert_eq!(
+        odometry("scan,x_m,y_m,yaw_rad\n1,0,0,0\n"),
+        "odometry.csv:2: odometry pose rows must run 0, 1, 2, …: expected scan 0, found 1"
+    );
+    assert_eq!(
+        odometry("scan,x_m,y_m,heading_rad\n0,0,0,0\n"),
+        "odometry.csv:1: missing column \"yaw_rad\" (expected scan,x_m,y_m,yaw_rad)"
+    );
+}
+
+/// Scans without timestamps and no `dt_s`: 1 s is assumed, and the dataset says so.
+#[test]
+fn an_assumed_spacing_is_a_warning() {
+    let untimed =
+        "scan,timestamp_s,range_m,bearing_rad\n0,,5,0\n0,,6,1\n0,,7,2\n1,,5,0\n1,,6,1\n1,,7,2\n";
+    let ds = parse(untimed, None).unwrap();
+    assert_eq!(ds.dt_s, 1.0);
+    assert_eq!(
+        ds.warnings,
+        vec![LoadWarning::AssumedScanSpacing { dt_s: 1.0 }]
+    );
+    let given = DatasetMeta {
+        dt_s: Some(0.25),
+        ..DatasetMeta::default()
+    };
+    let ds = parse_with(untimed, None, None, &given).unwrap();
+    assert_eq!((ds.dt_s, ds.warnings), (0.25, vec![]));
 }

@@ -74,16 +74,34 @@ fn csv_inputs() {
     const SCANS: &[u8] = b"scan,timestamp_s,range_m,bearing_rad\n0,0,5,0\n0,0,6,1\n0,0,7,2\n1,1,5,0\n1,1,6,1\n1,1,7,2\n";
     let meta = DatasetMeta::default();
     for (path, data) in inputs("csv_scans") {
-        let as_scans =
-            datasets::csvdir::parse((Path::new("scans.csv"), &data[..]), None, &meta, "fuzz");
+        let as_scans = datasets::csvdir::parse(
+            (Path::new("scans.csv"), &data[..]),
+            None,
+            None,
+            &meta,
+            "fuzz",
+        );
         let as_poses = datasets::csvdir::parse(
             (Path::new("scans.csv"), SCANS),
             Some((Path::new("poses.csv"), &data[..])),
+            None,
+            &meta,
+            "fuzz",
+        );
+        let as_odometry = datasets::csvdir::parse(
+            (Path::new("scans.csv"), SCANS),
+            None,
+            Some((Path::new("odometry.csv"), &data[..])),
             &meta,
             "fuzz",
         );
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         assert_eq!(as_scans.is_ok(), name == "good", "{name} as scans");
         assert_eq!(as_poses.is_ok(), name == "poses", "{name} as poses");
+        assert_eq!(
+            as_odometry.is_ok(),
+            name == "odometry",
+            "{name} as odometry"
+        );
     }
 }

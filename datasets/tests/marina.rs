@@ -52,6 +52,14 @@ fn real_files_load_with_the_expected_counts() {
         .all(|f| f.matches_pinned == Some(true)));
     assert_eq!(ds.reference.as_ref().map(|r| r.len()), Some(177));
     assert_eq!(ds.pair_dt_s(pairs[3]), 1.0);
+    // GNSS positions and a heading, no odometry, no known lever arm; median steps of 1.25 m
+    // and 0.09°, which the paper's identity start handles: no warning.
+    assert_eq!(
+        ds.reference_kind,
+        Some(datasets::ReferenceKind::GnssPositions)
+    );
+    assert_eq!((ds.odometry, ds.scanner_offset), (None, None));
+    assert_eq!(ds.warnings, vec![]);
 }
 
 fn parse(angles: &[u8], ranges: &[u8], gps: &[u8]) -> Result<datasets::Dataset, DatasetError> {

@@ -77,6 +77,15 @@ fn paper_scenario_has_the_papers_shape() {
     // Measured: 580-704 returns per scan, like the public data's 141-706.
     assert!((550.0..720.0).contains(&mean), "mean returns {mean}");
     assert_eq!(ds.consecutive_pairs().0.len(), 864);
+    // Exact poses of the scanner itself, no odometry, and motion an identity start handles
+    // (median 0.24 m / 0.08° per scan): nothing to warn about.
+    assert_eq!(
+        ds.reference_kind,
+        Some(datasets::ReferenceKind::GroundTruth)
+    );
+    assert_eq!(ds.scanner_offset, Some(datasets::Pose2::IDENTITY));
+    assert_eq!(ds.odometry, None);
+    assert_eq!(ds.warnings, vec![]);
 }
 
 #[test]
@@ -86,6 +95,8 @@ fn marina_like_scenario_samples_the_same_track_every_second() {
     let r = ds.reference.as_ref().unwrap();
     let step = (r[11].x_m - r[10].x_m).hypot(r[11].y_m - r[10].y_m);
     assert!((1.1..1.3).contains(&step), "step {step} m");
+    // 1.2 m per scan is within an identity start's reach in the harbour.
+    assert_eq!(ds.warnings, vec![]);
 }
 
 /// A static square room, scanned many times: the scatter of the returns about the true walls
