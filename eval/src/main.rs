@@ -17,6 +17,7 @@ use eval::{
 };
 use icp_core::global::{GlobalParams, RotationMode};
 use icp_core::matching::MATCHERS;
+use icp_core::sensor::SensorOverrides;
 use icp_core::variants::{
     builtin, builtin_names, builtins, section_docs, stage_families, table1, VariantSpec, TABLE1,
 };
@@ -136,6 +137,12 @@ struct DataArgs {
     /// CARMEN only: readings at or beyond this range are no-returns, metres.
     #[arg(long, default_value_t = 50.0)]
     carmen_max_range_m: f64,
+    /// The sensor model of this run, as overrides of the dataset's:
+    /// sigma_r_const_m=M,sigma_r_per_m=M_PER_M,sigma_alpha_deg=DEG (any of them). The
+    /// built-in variants' weights, the metrics and the noise bound use it; the data are not
+    /// changed.
+    #[arg(long)]
+    sensor: Option<SensorOverrides>,
 }
 
 #[derive(Args)]
@@ -151,10 +158,6 @@ struct VariantArgs {
     /// Nearest-neighbour matcher of the built-in variants (a kind listed below; all exact).
     #[arg(long)]
     matcher: Option<String>,
-    /// Bearing standard deviation of the sensor model behind the weights and metrics that use
-    /// it, degrees (default: the dataset's model; the data itself is not changed).
-    #[arg(long)]
-    sigma_alpha_deg: Option<f64>,
     /// Factor c of the robust threshold c · median of the built-in variants that reject.
     #[arg(long)]
     huber_c: Option<f64>,
@@ -500,12 +503,9 @@ fn set_param(spec: VariantSpec, path: &str, value: serde_json::Value) -> Result<
         .unwrap_or(spec))
 }
 
+/// The variants to run: the built-in ones named, with the dataset's sensor model (after
+/// `--sensor`) and the shared options, then those of the configuration files as written.
 fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>> {
-    let mut sensor = ds.sensor;
-    if let Some(deg) = args.sigma_alpha_deg {
-        sensor.sigma_alpha_rad = deg.to_radians();
-        sensor.validate().context("--sigma-alpha-deg")?;
-    }
     if let Some(m) = &args.matcher {
         MATCHERS.find(m).context("--matcher")?;
     }
@@ -523,7 +523,7 @@ fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>
             )
         })?;
         // The shared options apply to the built-in variants, where they have the parameter.
-        spec.sensor = sensor;
+        spec.sensor = ds.sensor;
         if let Some(m) = &args.matcher {
             spec = set_param(spec, "matcher.kind", m.as_str().into())?;
         }
@@ -732,6 +732,8 @@ fn list() -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// The dataset `--dataset` names, with the spacing of `--dt` and the sensor model of
+/// `--sensor`.
 fn load_dataset(args: &DataArgs) -> Result<Dataset> {
     let (kind, rest) = args.dataset.split_once(':').unwrap_or((&args.dataset, ""));
     let mut ds = match kind {
@@ -766,7 +768,10 @@ fn load_dataset(args: &DataArgs) -> Result<Dataset> {
         other => bail!("unknown dataset {other:?}: expected marina, synthetic[:scenario], carmen:PATH or csv:DIR"),
     };
     if let (Some(dt), "carmen" | "csv") = (args.dt, kind) {
-        ds.dt_s = dt;
+        ds.set_dt_s(dt).context("--dt")?;
+    }
+    if let Some(overrides) = &args.sensor {
+        ds.sensor = overrides.apply(ds.sensor).context("--sensor")?;
     }
     Ok(ds)
 }

@@ -154,9 +154,9 @@ fn robust_rows(out: &mut String, report: &RunReport, pick: Pick) {
     stats_table(out, report, pick, false, &ROBUST);
 }
 
-/// A time in seconds to the millisecond, without trailing zeros (`0.2`, `2.159`, `1`).
-fn seconds(t: f64) -> String {
-    let text = format!("{t:.3}");
+/// `v` to `decimals` decimals, without trailing zeros (`0.2`, `2.159`, `1`).
+fn trimmed(v: f64, decimals: usize) -> String {
+    let text = format!("{v:.decimals$}");
     let trimmed = text.trim_end_matches('0').trim_end_matches('.');
     if trimmed.is_empty() {
         "0".to_owned()
@@ -282,6 +282,11 @@ fn failures_md(out: &mut String, report: &RunReport) {
     }
 }
 
+/// A time in seconds to the millisecond, without trailing zeros (`0.2`, `2.159`, `1`).
+fn seconds(t: f64) -> String {
+    trimmed(t, 3)
+}
+
 /// `table.md`: Table 1 laid out like the paper, the robust table, and for the marina data the
 /// published values beside ours.
 pub fn table_md(report: &RunReport) -> String {
@@ -307,6 +312,25 @@ pub fn table_md(report: &RunReport) -> String {
         d.scans,
         seconds(d.dt_s)
     );
+    let reference = d
+        .reference_kind
+        .map_or_else(|| "none".to_owned(), |k| k.to_string());
+    let sensor = d.sensor.map_or_else(String::new, |m| {
+        format!(
+            " Sensor model: σ_r = {} m + {}·r, σ_α = {}°.",
+            trimmed(m.sigma_r_const_m, 6),
+            trimmed(m.sigma_r_per_m, 6),
+            trimmed(m.sigma_alpha_rad.to_degrees(), 6)
+        )
+    });
+    let _ = writeln!(out, "Reference: {reference}.{sensor}\n");
+    if !d.warnings.is_empty() {
+        let _ = writeln!(out, "Load warnings:\n");
+        for w in &d.warnings {
+            let _ = writeln!(out, "- {w}");
+        }
+        out.push('\n');
+    }
     let _ = writeln!(
         out,
         "Errors are estimate minus reference. \"max\" is the signed value of largest magnitude.\n"

@@ -1,10 +1,10 @@
 //! The run report: one typed struct from which `summary.json`, `pairs.csv`, `table.md`, the
 //! TUM trajectories and the figures are all rendered.
 
-use datasets::{Dataset, FileProvenance, ScanPair, SkippedPair};
+use datasets::{Dataset, FileProvenance, LoadWarning, Pose2, ReferenceKind, ScanPair, SkippedPair};
 use icp_core::motion::{wrap_deg, MovementParams};
 use icp_core::variants::VariantSpec;
-use icp_core::{BearingSense, ConfigError, Registrar};
+use icp_core::{BearingSense, ConfigError, Registrar, SensorModel};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
@@ -270,6 +270,22 @@ pub struct DatasetInfo {
     pub bearing_sense: BearingSense,
     /// Sense of the reference heading.
     pub reference_heading_sense: BearingSense,
+    /// What the reference is (`None`: no reference, or a summary written before the field).
+    #[serde(default)]
+    pub reference_kind: Option<ReferenceKind>,
+    /// What the loader noticed about the data.
+    #[serde(default)]
+    pub warnings: Vec<LoadWarning>,
+    /// The dataset's sensor model as the run used it, after `--sensor` (`None` in summaries
+    /// written before the field). Each variant's own model is in its configuration.
+    #[serde(default)]
+    pub sensor: Option<SensorModel>,
+    /// Whether the dataset has an odometry channel.
+    #[serde(default)]
+    pub odometry: bool,
+    /// The scanner's pose relative to the reference point, where known.
+    #[serde(default)]
+    pub scanner_offset: Option<Pose2>,
 }
 
 /// The reference's trustworthiness.
@@ -584,6 +600,11 @@ pub fn build(
             dt_s: ds.dt_s,
             bearing_sense: ds.bearing_sense,
             reference_heading_sense: ds.reference_heading_sense,
+            reference_kind: ds.reference_kind,
+            warnings: ds.warnings.clone(),
+            sensor: Some(ds.sensor),
+            odometry: ds.odometry.is_some(),
+            scanner_offset: ds.scanner_offset,
         },
         config: RunConfig {
             variants: setup.variants.iter().map(|v| v.spec()).collect(),

@@ -221,6 +221,7 @@ fn csv_scans(text: &str) -> String {
     error_of(csvdir::parse(
         (Path::new("scans.csv"), text.as_bytes()),
         None,
+        None,
         &DatasetMeta::default(),
         "test",
     ))
@@ -293,6 +294,101 @@ fn csv_half_a_true_normal() {
             "scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n0,0.0,5,0,,0.5\n"
         ),
         "scans.csv:2: true_normal_x is empty but true_normal_y is not"
+    );
+}
+
+#[test]
+fn csv_non_finite_odometry() {
+    let r = csvdir::parse(
+        (
+            Path::new("scans.csv"),
+            "scan,timestamp_s,range_m,bearing_rad\n0,0.0,5,0\n1,1.0,5,0\n".as_bytes(),
+        ),
+        None,
+        Some((
+            Path::new("odometry.csv"),
+            "scan,x_m,y_m,yaw_rad\n0,0,0,0\n1,0.5,0,inf\n".as_bytes(),
+        )),
+        &DatasetMeta::default(),
+        "test",
+    );
+    assert_eq!(
+        error_of(r),
+        "odometry.csv:3: non-finite odometry pose for scan 1"
+    );
+}
+
+// ---- The sensor model of a run (`--sensor`) ---------------------------------------------------
+
+/// The first line the harness prints on stderr for `run --sensor <text>`, and its exit code.
+fn run_with_sensor(name: &str, text: &str) -> (Option<i32>, String) {
+    let out = common::scratch_dir(name);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+        .args([
+            "run",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "3",
+            "--quiet",
+            "--no-plots",
+            "--sensor",
+            text,
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    (
+        o.status.code(),
+        err.lines().next().unwrap_or_default().to_owned(),
+    )
+}
+
+#[test]
+fn sensor_with_a_negative_sigma() {
+    assert_eq!(
+        run_with_sensor("matrix_sensor_negative", "sigma_alpha_deg=-0.5"),
+        (
+            Some(2),
+            "error: --sensor: sigma_alpha_deg = -0.5: must be finite and non-negative".to_owned()
+        )
+    );
+}
+
+#[test]
+fn sensor_with_an_unknown_key() {
+    assert_eq!(
+        run_with_sensor("matrix_sensor_key", "sigma_alpha_rad=0.01"),
+        (
+            Some(2),
+            "error: invalid value 'sigma_alpha_rad=0.01' for '--sensor <SENSOR>': unknown key \
+             \"sigma_alpha_rad\": expected one of sigma_r_const_m, sigma_r_per_m, sigma_alpha_deg"
+                .to_owned()
+        )
+    );
+}
+
+#[test]
+fn sensor_with_garbage() {
+    assert_eq!(
+        run_with_sensor("matrix_sensor_garbage", "sigma_r_per_m=0.01;x"),
+        (
+            Some(2),
+            "error: invalid value 'sigma_r_per_m=0.01;x' for '--sensor <SENSOR>': sigma_r_per_m = \
+             \"0.01;x\" is not a number"
+                .to_owned()
+        )
+    );
+    assert_eq!(
+        run_with_sensor(
+            "matrix_sensor_twice",
+            "sigma_r_per_m=0.01,sigma_r_per_m=0.02"
+        )
+        .1,
+        "error: invalid value 'sigma_r_per_m=0.01,sigma_r_per_m=0.02' for '--sensor <SENSOR>': \
+         sigma_r_per_m is given twice"
     );
 }
 
@@ -478,6 +574,7 @@ fn harness_refuses_a_dataset_without_pairs() {
             Path::new("scans.csv"),
             "scan,timestamp_s,range_m,bearing_rad\n0,0.0,5,0\n0,0.0,6,1\n0,0.0,7,2\n".as_bytes(),
         ),
+        None,
         None,
         &DatasetMeta::default(),
         "one-scan",
