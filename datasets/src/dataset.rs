@@ -164,7 +164,7 @@ impl fmt::Display for LoadWarning {
                 f,
                 "median step {:.2} m / {:.1}° between consecutive scans ({}): beyond the \
                  {LARGE_STEP_M} m / {LARGE_TURN_DEG}° an identity start is trusted with; \
-                 start from a better guess (independent odometry, a global search)",
+                 try `--init global` or independent odometry",
                 median_step_m,
                 median_turn_deg,
                 match measured_on {

@@ -304,8 +304,7 @@ fn large_steps_are_flagged() {
     assert_eq!(
         ds.warnings.last().unwrap().to_string(),
         "median step 0.10 m / 20.0° between consecutive scans (reference): beyond the 2 m / 5° \
-         an identity start is trusted with; start from a better guess (independent odometry, a \
-         global search)"
+         an identity start is trusted with; try `--init global` or independent odometry"
     );
     let striding: Vec<String> = [-3.0, 0.0, 3.0, 0.5]
         .iter()
