@@ -115,8 +115,13 @@ impl SensorModel {
     /// without trigonometry: the beam direction `u_r` is `point / range`.
     #[inline]
     pub fn covariance_at(&self, point: &Point2<f64>, range_m: f64) -> Matrix2<f64> {
-        let u = point.coords / range_m;
         let along = self.sigma_r_m(range_m);
+        if !(range_m > 0.0) {
+            // A return at the sensor has no direction: σ_r(0) every way, and no bearing
+            // error (σ_α · 0). Without this, the unit vector below is NaN.
+            return Matrix2::identity() * (along * along);
+        }
+        let u = point.coords / range_m;
         let across = self.sigma_alpha_rad * range_m;
         let (a2, c2) = (along * along, across * across);
         // σ_r² u uᵀ + (σ_α r)² u⊥ u⊥ᵀ, with u⊥ = (−u_y, u_x).
