@@ -116,7 +116,7 @@ impl SensorModel {
     #[inline]
     pub fn covariance_at(&self, point: &Point2<f64>, range_m: f64) -> Matrix2<f64> {
         let along = self.sigma_r_m(range_m);
-        if !(range_m > 0.0) {
+        if range_m.is_nan() || range_m <= 0.0 {
             // A return at the sensor has no direction: σ_r(0) every way, and no bearing
             // error (σ_α · 0). Without this, the unit vector below is NaN.
             return Matrix2::identity() * (along * along);
@@ -303,6 +303,18 @@ impl std::str::FromStr for SensorOverrides {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_return_at_the_sensor_has_a_finite_isotropic_covariance() {
+        let m = SensorModel {
+            sigma_r_const_m: 0.01,
+            ..SensorModel::sweep()
+        };
+        let c = m.covariance_at(&Point2::origin(), 0.0);
+        assert_eq!(c, Matrix2::identity() * 1e-4);
+        let sweep = SensorModel::sweep().covariance_at(&Point2::origin(), 0.0);
+        assert_eq!(sweep, Matrix2::zeros(), "σ_r(0) = 0 for the Sweep: no NaN");
+    }
 
     #[test]
     fn covariance_at_a_point_is_eq_8_without_trigonometry() {
