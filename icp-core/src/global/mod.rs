@@ -214,11 +214,15 @@ impl GlobalParams {
         (self.window_m / self.resolution_m).round() as i32
     }
 
-    /// The pyramid's depth: the smallest whose top-level block covers the whole window, so
-    /// that each rotation has one top-level node.
+    /// The pyramid's depth: the smallest whose top-level blocks cover the window two by two,
+    /// four top-level nodes per rotation. Their sorted bounds tell the rotations apart better
+    /// than one node over the whole window: on aces and the synthetic harbour, 15% and 3%
+    /// fewer cells read at the median and 41% and 25% fewer at the 95th percentile in
+    /// histogram mode, 22% and 33% fewer at the 95th percentile in full mode (8% and 21% more
+    /// at its median); a level lower reads more in full mode.
     fn depth(&self) -> u32 {
         let width = 2 * self.window_cells() as u32 + 1;
-        width.next_power_of_two().trailing_zeros()
+        width.next_power_of_two().trailing_zeros().saturating_sub(1)
     }
 
     /// Bins of the orientation histograms.
