@@ -3,7 +3,8 @@
 //! identity, with the scans' surface estimates made beforehand as the runner does. Each
 //! iteration runs all 20 pairs (the throughput is in pairs): the whole cost of a pair (the
 //! reference's grid, then the search), the default histogram mode and the full mode, and on
-//! aces the grid and the search apart.
+//! aces the grid and the search apart. On aces the default search is also timed pair by pair
+//! (`global/aces-pairs/<k>`, `k` the source scan), for the median over pairs.
 //!
 //! The aces log is looked for as `$ICP_DATA_DIR/carmen/aces.log.gz` or
 //! `$ICP_DATA_DIR/aces.log.gz` (a relative `ICP_DATA_DIR` from the workspace root), then in
@@ -13,8 +14,9 @@
 //!   ICP_DATA_DIR=/path/to/datasets cargo bench -p eval --bench global
 
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use datasets::carmen::{load, CarmenOptions};
 use datasets::synthetic::{generate, Scenario};
 use icp_core::global::{GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode};
@@ -44,9 +46,10 @@ impl Owned {
 }
 
 /// The pairs `(k, k + 1)` for the given `k`.
-fn pairs(scans: &[Scan], picked: impl Iterator<Item = usize>) -> Vec<(Owned, Owned)> {
+fn pairs(scans: &[Scan], picked: &[usize]) -> Vec<(Owned, Owned)> {
     picked
-        .map(|k| (Owned::new(&scans[k]), Owned::new(&scans[k + 1])))
+        .iter()
+        .map(|&k| (Owned::new(&scans[k]), Owned::new(&scans[k + 1])))
         .collect()
 }
 
@@ -101,10 +104,23 @@ fn aces(c: &mut Criterion) {
     };
     let ds = load(&path, &CarmenOptions::default()).expect("the aces log");
     let n = ds.scans.len() - 1;
-    let pairs = pairs(&ds.scans, (0..PAIRS).map(|i| i * n / PAIRS));
+    let picked: Vec<usize> = (0..PAIRS).map(|i| i * n / PAIRS).collect();
+    let pairs = pairs(&ds.scans, &picked);
     modes(c, "aces", &pairs);
-    // The two parts of the default search apart: the reference's grid, and the search on it.
+    // Pair by pair: the grid and the search of one pair per iteration.
     let params = GlobalParams::default();
+    let mut group = c.benchmark_group("global/aces-pairs");
+    group
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    let mut workspace = GlobalWorkspace::default();
+    for (k, pair) in picked.iter().zip(&pairs) {
+        group.bench_with_input(BenchmarkId::from_parameter(k), pair, |b, pair| {
+            b.iter(|| run_all(&params, std::slice::from_ref(pair), &mut workspace))
+        });
+    }
+    group.finish();
+    // The two parts of the default search apart: the reference's grid, and the search on it.
     let mut group = c.benchmark_group("global/aces-parts");
     group.throughput(Throughput::Elements(pairs.len() as u64));
     group.bench_function("grid", |b| {
@@ -137,7 +153,8 @@ fn synthetic(c: &mut Criterion) {
         ..Scenario::paper()
     };
     let ds = generate(&scenario).expect("synthetic data");
-    modes(c, "synthetic", &pairs(&ds.scans, 0..PAIRS));
+    let picked: Vec<usize> = (0..PAIRS).collect();
+    modes(c, "synthetic", &pairs(&ds.scans, &picked));
 }
 
 criterion_group!(benches, aces, synthetic);
