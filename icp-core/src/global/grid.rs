@@ -307,12 +307,8 @@ const WEIGHT_PER_M: f64 = 64.0;
 /// The largest weight: a sum over 2^24 returns cannot overflow.
 const MAX_WEIGHT: f64 = (1u32 << 24) as f64;
 
-/// The weight of a source return in the score: its range, in 1/64 m (at least 1). A fan of
-/// evenly spaced beams samples a surface at range `r` every `r Δα` (at normal incidence), so
-/// weighting each return by its range gives every metre of surface the same say; unweighted,
-/// the densely sampled near field outvotes everything else, and on a 180° scan the pose that
-/// keeps the near field in view (no motion) beats the true one whenever the motion carries
-/// that near field out of the reference's field of view (a corridor).
+/// The weight of a source return in the score: its range, in 1/64 m (at least 1; see the
+/// score in [`crate::global`]).
 pub(crate) fn range_weight(r: &Return) -> u32 {
     (r.range_m * WEIGHT_PER_M).round().clamp(1.0, MAX_WEIGHT) as u32
 }
@@ -328,10 +324,11 @@ pub(crate) fn mean_of(sum: u64, total: u64) -> f64 {
 }
 
 /// The score of `t_ref_src` on `grid`: the mean over `source`'s returns, weighted by their
-/// ranges (see [`range_weight`]), of the level-0 likelihood at the cell each moved return
-/// falls in (0 outside the grid), in [0, 1]; 0 for a scan without returns. The score the
-/// global search maximises, so a fine registration's result can be compared with the search's
-/// best (up to a return crossing a cell border where the search moved it by whole cells).
+/// ranges (see the score in [`crate::global`]), of the level-0 likelihood at the cell each
+/// moved return falls in (0 outside the grid), in [0, 1]; 0 for a scan without returns. The
+/// score the global search maximises, so a fine registration's result can be compared with
+/// the search's best (up to a return crossing a cell border where the search moved it by
+/// whole cells).
 pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>) -> f64 {
     let (sum, total) = source.returns().iter().fold((0, 0), |(sum, total), r| {
         let w = u64::from(range_weight(r));

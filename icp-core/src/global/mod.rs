@@ -1,20 +1,31 @@
 //! A global initial guess by correlative scan matching (CSM): the pose of a source scan on a
 //! likelihood grid of the reference scan that maximises the mean likelihood of the moved
-//! source points, over a square translation window around a centre pose and a set of rotation
-//! candidates, found exactly by branch and bound. It gives a fine registration a start within
-//! its basin when the motion between the scans is too large for a start at the identity.
+//! source returns, over a square translation window around a centre pose and a set of
+//! rotation candidates, found exactly by branch and bound. It gives a fine registration a
+//! start within its basin when the motion between the scans is too large for a start at the
+//! identity.
 //!
 //! * [`grid`]: the likelihood grid of the reference (Olson 2009, "Real-time correlative scan
 //!   matching", ICRA) and its max-pooled pyramid (Hess et al. 2016, "Real-time loop closure in
 //!   2D LIDAR SLAM", ICRA).
-//! * [`search`]: the depth-first branch and bound over translations (Hess et al. 2016).
-//! * [`histogram`]: rotation hypotheses from orientation histograms of the surface normals
-//!   (Weiss & von Puttkamer 1995).
+//! * `search` (private): the depth-first branch and bound over translations (Hess et al.
+//!   2016).
+//! * `histogram` (private): rotation hypotheses from orientation histograms of the surface
+//!   normals (Weiss & von Puttkamer 1995).
 //!
 //! The result is the exact maximum over the discrete search space: rotations on a lattice of
 //! `angular_step_deg` around the centre's, translations on the grid's cells around the
-//! centre's, each source point scored at the cell it falls in. Nothing refines it below a cell
-//! and a step: the fine registration that follows does.
+//! centre's, each source return scored at the cell it falls in. Nothing refines it below a
+//! cell and a step: the fine registration that follows does.
+//!
+//! # Score
+//! The mean is weighted by the returns' ranges. A fan of evenly spaced beams samples a surface
+//! at range `r` every `r Δα` (at normal incidence), so weighted by its range each return
+//! stands for the length of surface it sampled, and every metre of surface has the same say.
+//! Unweighted, the densely sampled near field outvotes the rest: on a 180° scan moving along
+//! a corridor, the motion carries the near walls out of the reference's field of view, and the
+//! pose that keeps them in view (no motion) beat the true one. On the aces log (full
+//! rotation search) 53% of the guesses were within 0.3 m and 3° unweighted, 99% weighted.
 //!
 //! ```
 //! use icp_core::global::{GlobalMatcher, GlobalParams, GlobalWorkspace};
@@ -120,6 +131,31 @@ pub struct GlobalParams {
     pub max_grid_cells: u64,
 }
 
+/// The defaults, and what they were chosen on: *aces* (the CARMEN ACES log, 439 pairs of
+/// 180-beam 1° scans, steps up to 1.54 m and 78°) and *synthetic* (the first 100 pairs of the
+/// synthetic harbour of `datasets`, 750 beams at 0.48°, 0.24 m steps), searched around the
+/// identity; a guess is right within 0.3 m and 3° of the reference.
+///
+/// * `resolution_m` = `sigma_m` = 0.1 m: the best on aces of 0.05–0.2 m (84% of the pairs
+///   within 0.1 m and 1°, 98.4% right); 0.05 m was worse there (83%, 96%) and 4–8 times
+///   slower on both; all found every synthetic pair.
+/// * `window_m` 2 m: aces' largest step is 1.54 m and a 1 s step at the harbour's 1.2 m/s is
+///   1.2 m; 1 m lost 1.4% of the aces pairs, 1.5 and 3 m changed nothing.
+/// * `rotation` histogram, `histogram_bin_deg` 1°, `histogram_peaks` 4,
+///   `histogram_window_deg` 2° (chosen on aces): 98.4% right (the full search 98.6%) at an
+///   eighth of its cost; 2 peaks or ±1° lost 0.9–1.6%, 8 peaks or ±4° gained 0.2% for
+///   1.4–1.6 times the cells read. Checked on synthetic with the centre moved 45–120° and up
+///   to 1.2 m off the truth: every pair found.
+/// * `max_rotation_deg` 180, `angular_step_deg` from the farthest return (0.2° for 27 m, the
+///   median on aces): no assumption on the turn, and no return moves by more than a cell
+///   between two rotation candidates.
+/// * `ambiguity_ratio` 0.8, `ambiguity_separation_m` 0.5 m (chosen on aces, the only data
+///   with wrong guesses): each of the 7 wrong aces guesses has a runner-up above 0.8 × its
+///   score (4 above 0.9, against 15 of the 432 right ones); no synthetic pair has one; 2% more
+///   cells read. 0.5 m is beyond the width of a score peak (3σ) and below the corridor
+///   shifts of the wrong guesses (0.9–1.4 m).
+/// * `max_grid_cells` 2^24 (16 MiB): the largest grid with its pyramid is 1.6 M cells on
+///   aces and 2.2 M on the synthetic harbour.
 impl Default for GlobalParams {
     fn default() -> Self {
         Self {
@@ -214,11 +250,15 @@ impl GlobalParams {
         (self.window_m / self.resolution_m).round() as i32
     }
 
-    /// The pyramid's depth: the smallest whose top-level block covers the whole window, so
-    /// that each rotation has one top-level node.
+    /// The pyramid's depth: the smallest whose top-level blocks cover the window two by two,
+    /// four top-level nodes per rotation. Their sorted bounds tell the rotations apart better
+    /// than one node over the whole window: on aces and the synthetic harbour, 15% and 3%
+    /// fewer cells read at the median and 41% and 25% fewer at the 95th percentile in
+    /// histogram mode, 22% and 33% fewer at the 95th percentile in full mode (8% and 21% more
+    /// at its median); a level lower reads more in full mode.
     fn depth(&self) -> u32 {
         let width = 2 * self.window_cells() as u32 + 1;
-        width.next_power_of_two().trailing_zeros()
+        width.next_power_of_two().trailing_zeros().saturating_sub(1)
     }
 
     /// Bins of the orientation histograms.

@@ -1,0 +1,161 @@
+//! The global initial-guess search (`icp_core::global`) on 20 pairs of the CARMEN aces log
+//! spread over the log, and on the first 20 pairs of the synthetic harbour, centred at the
+//! identity, with the scans' surface estimates made beforehand as the runner does. Each
+//! iteration runs all 20 pairs (the throughput is in pairs): the whole cost of a pair (the
+//! reference's grid, then the search), the default histogram mode and the full mode, and on
+//! aces the grid and the search apart. On aces the default search is also timed pair by pair
+//! (`global/aces-pairs/<k>`, `k` the source scan), for the median over pairs.
+//!
+//! The aces log is looked for as `$ICP_DATA_DIR/carmen/aces.log.gz` or
+//! `$ICP_DATA_DIR/aces.log.gz` (a relative `ICP_DATA_DIR` from the workspace root), then in
+//! `../shared/datasets/carmen/` beside the workspace; without it the aces benchmarks are
+//! skipped, said on the terminal.
+//!
+//!   ICP_DATA_DIR=/path/to/datasets cargo bench -p eval --bench global
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use datasets::carmen::{load, CarmenOptions};
+use datasets::synthetic::{generate, Scenario};
+use icp_core::global::{GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode};
+use icp_core::{Prepared, Scan, SurfaceParams, Surfaces};
+use nalgebra::Isometry2;
+
+/// Pairs per iteration.
+const PAIRS: usize = 20;
+
+/// A scan with its surface estimates.
+struct Owned {
+    scan: Scan,
+    surfaces: Surfaces,
+}
+
+impl Owned {
+    fn new(scan: &Scan) -> Self {
+        Self {
+            scan: scan.clone(),
+            surfaces: Surfaces::estimate(scan, &SurfaceParams::default()),
+        }
+    }
+
+    fn prepared(&self) -> Prepared<'_> {
+        Prepared::new(&self.scan, &self.surfaces)
+    }
+}
+
+/// The pairs `(k, k + 1)` for the given `k`.
+fn pairs(scans: &[Scan], picked: &[usize]) -> Vec<(Owned, Owned)> {
+    picked
+        .iter()
+        .map(|&k| (Owned::new(&scans[k]), Owned::new(&scans[k + 1])))
+        .collect()
+}
+
+/// The aces log, when it is found.
+fn aces_path() -> Option<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut looked = Vec::new();
+    if let Some(dir) = std::env::var_os(datasets::marina::DATA_DIR_ENV) {
+        let dir = root.join(dir);
+        looked.push(dir.join("carmen").join("aces.log.gz"));
+        looked.push(dir.join("aces.log.gz"));
+    }
+    looked.push(root.join("../shared/datasets/carmen/aces.log.gz"));
+    let found = looked.iter().find(|p| p.is_file()).cloned();
+    if found.is_none() {
+        eprintln!("aces log absent (looked at {looked:?}); skipping the aces benchmarks");
+    }
+    found
+}
+
+/// Every pair searched, each with a grid built for it (the whole cost of a pair).
+fn run_all(params: &GlobalParams, pairs: &[(Owned, Owned)], workspace: &mut GlobalWorkspace) {
+    for (source, reference) in pairs {
+        let matcher = GlobalMatcher::new(reference.prepared(), params).expect("a grid");
+        matcher
+            .search(workspace, source.prepared(), Isometry2::identity())
+            .expect("a guess");
+    }
+}
+
+/// The default (histogram) and full modes on `pairs`, each iteration all of them.
+fn modes(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
+    let mut group = c.benchmark_group(format!("global/{name}"));
+    group.throughput(Throughput::Elements(pairs.len() as u64));
+    let mut workspace = GlobalWorkspace::default();
+    let default = GlobalParams::default();
+    group.bench_function("default", |b| {
+        b.iter(|| run_all(&default, pairs, &mut workspace))
+    });
+    let full = GlobalParams {
+        rotation: RotationMode::Full,
+        ..default
+    };
+    group.sample_size(10);
+    group.bench_function("full", |b| b.iter(|| run_all(&full, pairs, &mut workspace)));
+    group.finish();
+}
+
+fn aces(c: &mut Criterion) {
+    let Some(path) = aces_path() else {
+        return;
+    };
+    let ds = load(&path, &CarmenOptions::default()).expect("the aces log");
+    let n = ds.scans.len() - 1;
+    let picked: Vec<usize> = (0..PAIRS).map(|i| i * n / PAIRS).collect();
+    let pairs = pairs(&ds.scans, &picked);
+    modes(c, "aces", &pairs);
+    // Pair by pair: the grid and the search of one pair per iteration.
+    let params = GlobalParams::default();
+    let mut group = c.benchmark_group("global/aces-pairs");
+    group
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(2));
+    let mut workspace = GlobalWorkspace::default();
+    for (k, pair) in picked.iter().zip(&pairs) {
+        group.bench_with_input(BenchmarkId::from_parameter(k), pair, |b, pair| {
+            b.iter(|| run_all(&params, std::slice::from_ref(pair), &mut workspace))
+        });
+    }
+    group.finish();
+    // The two parts of the default search apart: the reference's grid, and the search on it.
+    let mut group = c.benchmark_group("global/aces-parts");
+    group.throughput(Throughput::Elements(pairs.len() as u64));
+    group.bench_function("grid", |b| {
+        b.iter(|| {
+            for (_, reference) in &pairs {
+                GlobalMatcher::new(reference.prepared(), &params).expect("a grid");
+            }
+        })
+    });
+    let matchers: Vec<GlobalMatcher> = pairs
+        .iter()
+        .map(|(_, r)| GlobalMatcher::new(r.prepared(), &params).expect("a grid"))
+        .collect();
+    let mut workspace = GlobalWorkspace::default();
+    group.bench_function("search", |b| {
+        b.iter(|| {
+            for ((source, _), matcher) in pairs.iter().zip(&matchers) {
+                matcher
+                    .search(&mut workspace, source.prepared(), Isometry2::identity())
+                    .expect("a guess");
+            }
+        })
+    });
+    group.finish();
+}
+
+fn synthetic(c: &mut Criterion) {
+    let scenario = Scenario {
+        n_scans: PAIRS + 1,
+        ..Scenario::paper()
+    };
+    let ds = generate(&scenario).expect("synthetic data");
+    let picked: Vec<usize> = (0..PAIRS).collect();
+    modes(c, "synthetic", &pairs(&ds.scans, &picked));
+}
+
+criterion_group!(benches, aces, synthetic);
+criterion_main!(benches);
