@@ -12,6 +12,9 @@ if [ $# -gt 0 ]; then data=(--data-dir "$1"); fi
 variants=K_ICP,H_ICP,HM_ICP,HD_ICP,IR_ICP,PL_ICP,HD_PL_ICP,GICP,HD_GICP
 cargo build --release --locked -q -p eval
 run() { ./target/release/icp-eval "$@"; }
+# The directories hold nothing but this script's output (written before output manifests
+# existed): start them afresh, so no stale file survives.
+rm -rf reports/comparison/marina reports/comparison/synthetic-paper
 run compare --dataset marina "${data[@]}" --variants "$variants" \
   --config configs/variants/tukey_hd_icp.toml --sweep sigma_alpha_deg=0.1,0.25,0.5,1,2 \
   --quiet --out reports/comparison/marina > /dev/null
