@@ -16,7 +16,7 @@
 //! ([`LoadWarning::OdometryEqualsReference`](crate::LoadWarning)).
 
 use std::io::{BufRead, BufReader, Read};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use icp_core::{BearingSense, Scan, SensorModel};
 use sha2::{Digest, Sha256};
@@ -130,13 +130,7 @@ pub fn parse<R: Read>(
         options.max_range_m,
         options.max_range_m.is_finite() && options.max_range_m > 0.0,
     )?;
-    options
-        .sensor
-        .validate()
-        .map_err(|e| DatasetError::BadValue {
-            path: PathBuf::from("<sensor model>"),
-            what: e.to_string(),
-        })?;
+    DatasetError::check_sensor(&options.sensor)?;
     let mut scans = Vec::new();
     let mut reference = Vec::new();
     let mut odometry = Vec::new();

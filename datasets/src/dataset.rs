@@ -443,6 +443,14 @@ impl Dataset {
         (pairs, skipped)
     }
 
+    /// True when the dataset has a reference and every pose of it is a rigid 2D pose of the
+    /// scanner (pose errors, a reference start and the basin protocol need one).
+    pub fn rigid_reference(&self) -> bool {
+        self.reference
+            .as_ref()
+            .is_some_and(|r| r.iter().all(|p| p.scan_yaw_rad.is_some()))
+    }
+
     /// Time between the two scans of a pair: from timestamps when both have one, else the
     /// nominal `dt_s` times the index difference.
     pub fn pair_dt_s(&self, pair: ScanPair) -> f64 {

@@ -68,3 +68,13 @@ pub enum DatasetError {
         reason: &'static str,
     },
 }
+
+impl DatasetError {
+    /// `Err` naming the sensor model a loader was given when it is not usable.
+    pub(crate) fn check_sensor(sensor: &icp_core::SensorModel) -> Result<(), Self> {
+        sensor.validate().map_err(|e| Self::BadValue {
+            path: PathBuf::from("<sensor model>"),
+            what: e.to_string(),
+        })
+    }
+}

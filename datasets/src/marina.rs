@@ -170,13 +170,7 @@ fn check_options(options: &MarinaOptions) -> Result<(), DatasetError> {
             reason: "must be finite and positive",
         });
     }
-    options
-        .sensor
-        .validate()
-        .map_err(|e| DatasetError::BadValue {
-            path: PathBuf::from("<sensor model>"),
-            what: e.to_string(),
-        })
+    DatasetError::check_sensor(&options.sensor)
 }
 
 /// The dataset from the three matrices (angles, ranges, poses) read from `paths`.

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::outcome::{SUCCESS_ROT_DEG, SUCCESS_TRANS_M};
 use crate::reference;
+use crate::runner::distinct_surface_params;
 use crate::stats::quantile_sorted;
 use crate::status::{PairStatus, StatusKind};
 use crate::EvalError;
@@ -197,11 +198,7 @@ pub fn run(
     progress: &ProgressBar,
 ) -> Result<BasinReport, EvalError> {
     options.validate()?;
-    let rigid = ds
-        .reference
-        .as_ref()
-        .is_some_and(|r| r.iter().all(|p| p.scan_yaw_rad.is_some()));
-    if !rigid {
+    if !ds.rigid_reference() {
         return Err(EvalError::NeedsRigidReference {
             what: "the convergence basin",
             dataset: ds.provenance.name.clone(),
@@ -213,13 +210,8 @@ pub fn run(
         .enumerate()
         .step_by(options.pair_stride)
         .collect();
-    let mut params: Vec<SurfaceParams> = Vec::new();
-    for r in registrars {
-        let p = r.surface_params();
-        if !params.contains(&p) {
-            params.push(p);
-        }
-    }
+    let params: Vec<SurfaceParams> =
+        distinct_surface_params(registrars.iter().map(|r| r.surface_params()));
     progress.set_length((chosen.len() * registrars.len() * options.perturbations) as u64);
     let per_pair: Vec<Vec<BasinRow>> = chosen
         .par_iter()

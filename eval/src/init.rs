@@ -174,7 +174,7 @@ impl InitChain {
             if mode == InitMode::Reference {
                 match &ds.reference {
                     None => return Err(unavailable("it has no reference")),
-                    Some(r) if r.iter().any(|p| p.scan_yaw_rad.is_none()) => {
+                    Some(_) if !ds.rigid_reference() => {
                         return Err(unavailable(
                             "its reference is not a rigid 2D pose of the scanner",
                         ))

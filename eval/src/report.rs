@@ -550,10 +550,7 @@ pub fn build(
     let all_registered: Vec<bool> = (0..pairs.len())
         .map(|i| runs.iter().all(|rs| rs[i].result.is_ok()))
         .collect();
-    let rigid = ds
-        .reference
-        .as_ref()
-        .is_some_and(|r| r.iter().all(|p| p.scan_yaw_rad.is_some()));
+    let rigid = ds.rigid_reference();
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();

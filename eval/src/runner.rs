@@ -266,17 +266,13 @@ fn run_blocks(
     progress: &ProgressBar,
     block_pairs: usize,
 ) -> Runs {
-    let mut params: Vec<SurfaceParams> = Vec::new();
     let searches = plan.searches();
-    let wanted = registrars
-        .iter()
-        .map(|r| r.surface_params())
-        .chain(searches.then(SurfaceParams::default));
-    for p in wanted {
-        if !params.contains(&p) {
-            params.push(p);
-        }
-    }
+    let params = distinct_surface_params(
+        registrars
+            .iter()
+            .map(|r| r.surface_params())
+            .chain(searches.then(SurfaceParams::default)),
+    );
     let mut prepared = PreparedScans {
         params: &params,
         per_scan: BTreeMap::new(),
@@ -394,6 +390,20 @@ fn run_blocks(
         prepare_us,
         searches: pair_searches,
     }
+}
+
+/// The distinct parameter sets among `wanted`, in first-seen order: one surface estimate per
+/// scan and set.
+pub(crate) fn distinct_surface_params(
+    wanted: impl Iterator<Item = SurfaceParams>,
+) -> Vec<SurfaceParams> {
+    let mut params: Vec<SurfaceParams> = Vec::new();
+    for p in wanted {
+        if !params.contains(&p) {
+            params.push(p);
+        }
+    }
+    params
 }
 
 /// What a constant-velocity start of the next pair takes from `run` of `pair`: its estimate
