@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use datasets::{Dataset, DatasetError};
-use icp_core::{ConfigError, IcpError};
+use icp_core::{ConfigError, IcpError, Registrar};
 use indicatif::ProgressBar;
 
 pub mod basin;
@@ -27,6 +27,7 @@ pub mod reference;
 pub mod report;
 pub mod runner;
 pub mod scaling;
+pub mod start_gate;
 pub mod stats;
 pub mod status;
 pub mod sweep;
@@ -105,10 +106,19 @@ pub fn evaluate(
     }
     setup.init.check(ds)?;
     progress.set_length((setup.variants.len() * pairs.len()) as u64);
+    let from_global: Vec<Option<Box<dyn Registrar>>> = setup
+        .global_start_specs()?
+        .into_iter()
+        .map(|s| {
+            s.map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
+                .transpose()
+        })
+        .collect::<Result<_, ConfigError>>()?;
     let plan = runner::RunPlan {
         chain: &setup.init,
         global: &setup.global,
         check: setup.global_check == GlobalChecks::On,
+        from_global: &from_global,
     };
     let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
     progress.finish_and_clear();

@@ -13,6 +13,7 @@ use crate::init::{InitChain, InitMode};
 use crate::outcome::{self, FlagQuality};
 use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
 use crate::runner::{PairRun, Runs};
+use crate::start_gate::{self, GlobalGate};
 use crate::stats::{median_p95, Stats};
 use crate::status::StatusKind;
 use icp_core::global::GlobalParams;
@@ -350,6 +351,14 @@ pub struct RunConfig {
     /// Whether results were checked against it.
     #[serde(default)]
     pub global_check: GlobalChecks,
+    /// How registrations started at the global search gate their correspondences.
+    #[serde(default)]
+    pub global_gate: GlobalGate,
+    /// The variants whose global starts were gated, and at what distance (m): those whose
+    /// metric measures along a surface normal and has no gate of its own
+    /// ([`crate::start_gate`]); empty when no registration starts at the search.
+    #[serde(default)]
+    pub global_gated: Vec<(String, f64)>,
 }
 
 /// The whole run.
@@ -405,6 +414,8 @@ pub struct EvalSetup {
     /// Whether every result is checked against the pair's global search (a result far from a
     /// clearly better pose is flagged suspect).
     pub global_check: GlobalChecks,
+    /// How registrations started at the global search gate their correspondences.
+    pub global_gate: GlobalGate,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -432,7 +443,39 @@ impl EvalSetup {
             init: InitChain::default(),
             global: GlobalParams::default(),
             global_check: GlobalChecks::Off,
+            global_gate: GlobalGate::default(),
         })
+    }
+
+    /// The same setup with the correspondence gate `gate` of registrations started at the
+    /// global search.
+    pub fn with_global_gate(mut self, gate: GlobalGate) -> Self {
+        self.global_gate = gate;
+        self
+    }
+
+    /// Per variant, the spec a start from the global search runs instead of it, when the
+    /// chain has such starts and they are gated ([`crate::start_gate`]); empty when none is.
+    /// A variant with a stage written in user code (its spec does not build) runs as it is.
+    pub fn global_start_specs(&self) -> Result<Vec<Option<VariantSpec>>, ConfigError> {
+        let Some(gate_m) = self
+            .init
+            .global()
+            .then(|| self.global_gate.metres(&self.global))
+            .flatten()
+        else {
+            return Ok(Vec::new());
+        };
+        self.variants
+            .iter()
+            .map(|v| {
+                let spec = v.spec();
+                match spec.build() {
+                    Ok(_) => start_gate::gated(&spec, gate_m),
+                    Err(_) => Ok(None),
+                }
+            })
+            .collect()
     }
 
     /// The same setup with the global search's parameters `global` and checks `check`.
@@ -608,6 +651,19 @@ pub fn build(
             init: setup.init.clone(),
             global: setup.global,
             global_check: setup.global_check,
+            global_gate: setup.global_gate,
+            global_gated: setup
+                .global_start_specs()
+                .unwrap_or_default()
+                .into_iter()
+                .flatten()
+                .filter_map(|s| {
+                    Some((
+                        s.name.clone(),
+                        s.metric.params.get("max_pair_distance_m")?.as_f64()?,
+                    ))
+                })
+                .collect(),
         },
         reference: ReferenceInfo {
             available: ds.reference.is_some(),

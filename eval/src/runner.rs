@@ -65,7 +65,7 @@ pub struct Runs {
 
 /// What a run does besides registering: where registrations start, and whether a global
 /// search checks every result.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct RunPlan<'a> {
     /// The init chain.
     pub chain: &'a InitChain,
@@ -73,12 +73,20 @@ pub struct RunPlan<'a> {
     pub global: &'a GlobalParams,
     /// Whether every result is checked against the pair's global search.
     pub check: bool,
+    /// Per registrar (same order), the one a start from the global search uses instead, when
+    /// that start gates its correspondences ([`crate::start_gate`]); empty: none does.
+    pub from_global: &'a [Option<Box<dyn Registrar>>],
 }
 
 impl RunPlan<'_> {
     /// True when each pair needs its global search.
     fn searches(&self) -> bool {
         self.check || self.chain.global()
+    }
+
+    /// The registrar a global start of variant `v` uses, when it is another one.
+    fn gated(&self, v: usize) -> Option<&dyn Registrar> {
+        self.from_global.get(v).and_then(|r| r.as_deref())
     }
 }
 
@@ -206,17 +214,19 @@ impl BlockJob<'_> {
         }
     }
 
-    /// Registers `pair` with `reg` from each start of the chain in turn, until a result is not
-    /// flagged (else the last one is kept); `previous` is the variant's previous result and
-    /// `searched` the pair's global search.
+    /// Registers `pair` with the variant (its registrar, and the one a global start uses
+    /// when that differs) from each start of the chain in turn, until a result is not flagged
+    /// (else the last one is kept); `previous` is the variant's previous result and `searched`
+    /// the pair's global search.
     fn run(
         &self,
-        reg: &dyn Registrar,
+        variant: (&dyn Registrar, Option<&dyn Registrar>),
         workspace: &mut Workspace,
         pair: ScanPair,
         previous: Option<&Previous>,
         searched: Option<&Searched>,
     ) -> PairRun {
+        let (reg, reg_global) = variant;
         let params = reg.surface_params();
         let prepared_scan =
             |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
@@ -227,8 +237,12 @@ impl BlockJob<'_> {
         for (attempt, &mode) in self.plan.chain.modes().iter().enumerate() {
             let guess = searched.map(|s| &s.guess);
             let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
+            let chosen = match (used, reg_global) {
+                (InitMode::Global, Some(gated)) => gated,
+                _ => reg,
+            };
             let clock = Instant::now();
-            let result = reg.register_prepared(workspace, source, reference, start);
+            let result = chosen.register_prepared(workspace, source, reference, start);
             time_us += clock.elapsed().as_secs_f64() * 1e6;
             let check = match (&result, searched) {
                 (Ok(r), Some(s)) if self.plan.check => Some(GlobalCheck {
@@ -307,7 +321,8 @@ fn run_blocks(
             let runs: Vec<Vec<PairRun>> = registrars
                 .par_iter()
                 .zip(per_variant.par_iter())
-                .map(|(reg, done)| {
+                .enumerate()
+                .map(|(v, (reg, done))| {
                     let mut workspace = Workspace::default();
                     let mut gws = GlobalWorkspace::default();
                     // Carried over from the block before.
@@ -319,7 +334,7 @@ fn run_blocks(
                         .map(|&pair| {
                             let searched = searches.then(|| job.search(pair, &mut gws).0).flatten();
                             let run = job.run(
-                                reg.as_ref(),
+                                (reg.as_ref(), plan.gated(v)),
                                 &mut workspace,
                                 pair,
                                 previous.as_ref(),
@@ -363,7 +378,7 @@ fn run_blocks(
                         .into_iter()
                         .map(|v| {
                             let run = job.run(
-                                registrars[v].as_ref(),
+                                (registrars[v].as_ref(), plan.gated(v)),
                                 workspace,
                                 pair,
                                 None,
@@ -459,6 +474,7 @@ mod tests {
             chain: &chain,
             global: &GlobalParams::default(),
             check: true,
+            from_global: &[],
         };
         let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS);
         assert_eq!(whole.per_variant[0].len(), pairs.len());

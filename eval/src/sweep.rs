@@ -133,7 +133,8 @@ pub fn sweep(
         let setup = EvalSetup::from_specs(&specs, base.offset)?
             .with_reference_checks(base.reference_checks)
             .with_init(base.init.clone())
-            .with_global(base.global, base.global_check);
+            .with_global(base.global, base.global_check)
+            .with_global_gate(base.global_gate);
         let report = evaluate(ds, &setup, progress)?;
         for v in &report.variants {
             let e = &v.plausible_reference;

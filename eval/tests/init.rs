@@ -233,3 +233,80 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
     assert_eq!(chained.pairs[0].init, InitMode::Global);
     assert_eq!(chained.pairs[0].init_attempts, 2);
 }
+
+/// Registrations started at the global search gate their correspondences when their metric
+/// measures along a surface normal (see `eval::start_gate`): a wall that moved between the
+/// scans (a door, a parked car) pulls an ungated point-to-line fit off the true motion, while
+/// the gated one, started within a cell of it, never pairs the moved wall.
+#[test]
+fn a_global_start_gates_the_surface_metrics() {
+    let mut ds = generate(&Scenario {
+        n_scans: 2,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let truth = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.6, -0.3), 20f64.to_radians());
+    // Three walls that stay, and a fourth whose points in scan 1 sit 0.35 m off it.
+    let walls = |moved_wall_offset_m: f64| -> Vec<[f64; 2]> {
+        (0..400)
+            .map(|i| {
+                let s = (i / 4) as f64 * 0.1;
+                match i % 4 {
+                    0 => [8.0, -5.0 + s],
+                    1 => [-4.0 + s, 7.0],
+                    2 => [-4.0 + s * 0.8, -6.0 - s * 0.2],
+                    _ => [-6.0 - moved_wall_offset_m, -4.0 + s * 0.9],
+                }
+            })
+            .collect()
+    };
+    let source = walls(0.0);
+    let moved: Vec<[f64; 2]> = walls(0.35)
+        .iter()
+        .map(|p| {
+            let q = truth * nalgebra::Point2::new(p[0], p[1]);
+            [q.x, q.y]
+        })
+        .collect();
+    for (k, pts) in [(0, &source), (1, &moved)] {
+        let t = ds.scans[k].timestamp_s().unwrap();
+        ds.scans[k] = Scan::from_cartesian(pts)
+            .unwrap()
+            .with_timestamp(t)
+            .unwrap();
+    }
+    let r0 = ds.reference.as_ref().unwrap()[0];
+    let pose1 = r0.scan_pose().unwrap() * truth.inverse();
+    let r1 = &mut ds.reference.as_mut().unwrap()[1];
+    r1.x_m = pose1.translation.x;
+    r1.y_m = pose1.translation.y;
+    r1.scan_yaw_rad = Some(pose1.rotation.angle());
+    r1.heading_rad = r0.heading_rad + (pose1.rotation.angle() - r0.scan_yaw_rad.unwrap());
+    let run = |gate: &str| {
+        let specs = [builtin("PL_ICP").unwrap(), builtin("HD_ICP").unwrap()];
+        let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
+            .unwrap()
+            .with_init("global".parse().unwrap())
+            .with_global_gate(gate.parse().unwrap());
+        evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
+    };
+    let gated = run("auto");
+    assert_eq!(
+        gated.config.global_gated,
+        vec![("PL_ICP".to_owned(), 0.2)],
+        "the surface metric is gated, the paper's point-to-point is not"
+    );
+    let ungated = run("off");
+    assert!(ungated.config.global_gated.is_empty());
+    let err = |r: &RunReport| r.pairs[0].trans_err_m.unwrap();
+    assert_eq!(gated.pairs[0].init, InitMode::Global);
+    assert!(err(&gated) < 1e-3, "gated: {:?}", gated.pairs[0]);
+    assert!(
+        err(&ungated) > 5.0 * err(&gated).max(1e-4),
+        "ungated {} m vs gated {} m",
+        err(&ungated),
+        err(&gated)
+    );
+    // HD_ICP runs the paper's loop whatever the gate option.
+    assert_eq!(gated.pairs[1].tx_m, ungated.pairs[1].tx_m);
+}
