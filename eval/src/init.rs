@@ -10,7 +10,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use datasets::{Dataset, ScanPair};
+use datasets::{Dataset, LoadWarning, Pose2, ScanPair};
 use icp_core::global::GlobalGuess;
 use nalgebra::{Isometry2, Matrix2};
 use serde::{Deserialize, Serialize};
@@ -30,6 +30,9 @@ pub enum InitMode {
     /// The best pose of a global search (correlative scan matching with branch and bound,
     /// `icp_core::global`) around the identity: for motion beyond a local method's basin.
     Global,
+    /// The motion of the dataset's odometry channel between the two scans (needs an
+    /// odometry that is independent of the reference).
+    Odometry,
     /// The reference motion itself: a diagnostic that tells starting-point failures from a
     /// method's own accuracy (needs a reference that is a rigid 2D pose).
     Reference,
@@ -37,7 +40,7 @@ pub enum InitMode {
 
 /// Every mode with its name and help, registered once: parsing, `--init`'s help and the
 /// error messages are generated from it.
-pub const MODES: [(InitMode, &str, &str); 4] = [
+pub const MODES: [(InitMode, &str, &str); 5] = [
     (
         InitMode::Identity,
         "identity",
@@ -52,6 +55,11 @@ pub const MODES: [(InitMode, &str, &str); 4] = [
         InitMode::Global,
         "global",
         "correlative scan matching (branch and bound) within --global-window-m, rotations as --global-rotation says",
+    ),
+    (
+        InitMode::Odometry,
+        "odometry",
+        "the odometry's motion between the scans (needs an odometry channel independent of the reference)",
     ),
     (
         InitMode::Reference,
@@ -171,6 +179,21 @@ impl InitChain {
                 dataset: ds.provenance.name.clone(),
                 why,
             };
+            if mode == InitMode::Odometry {
+                if ds.odometry.is_none() {
+                    return Err(unavailable("it has no odometry channel"));
+                }
+                if ds
+                    .warnings
+                    .iter()
+                    .any(|w| matches!(w, LoadWarning::OdometryEqualsReference { .. }))
+                {
+                    return Err(unavailable(
+                        "its odometry equals the reference poses (no independent odometry): \
+                         a start from it would be the reference motion itself",
+                    ));
+                }
+            }
             if mode == InitMode::Reference {
                 match &ds.reference {
                     None => return Err(unavailable("it has no reference")),
@@ -226,10 +249,23 @@ pub fn start(
             }
             _ => identity,
         },
+        InitMode::Odometry => ds
+            .odometry
+            .as_ref()
+            .and_then(|o| Some(odometry_motion(o.get(pair.source)?, o.get(pair.reference)?)))
+            .map_or(identity, |t| (t, mode)),
         InitMode::Reference => reference::motion(ds, pair.source, pair.reference, dt_s)
             .and_then(|m| m.t_ref_src)
             .map_or(identity, |t| (t, mode)),
     }
+}
+
+/// `t_ref_src` from the odometry poses of the two scans (`t_odom_k`, `t_odom_k1`): the
+/// motion from scan k to scan k+1 seen from k+1, with the scanner at the odometry's point (an
+/// offset between them changes the start by a rotation of the lever arm, which the
+/// registration removes).
+fn odometry_motion(source: &Pose2, reference: &Pose2) -> Isometry2<f64> {
+    reference.isometry().inverse() * source.isometry()
 }
 
 /// `t` as a constant twist applied over `ratio` times its time: `exp(ratio · log t)` on SE(2),
@@ -275,7 +311,7 @@ mod tests {
         );
         let e = "odometer".parse::<InitChain>().unwrap_err().to_string();
         assert!(
-            e.contains("identity, constant-velocity, global, reference"),
+            e.contains("identity, constant-velocity, global, odometry, reference"),
             "{e}"
         );
     }

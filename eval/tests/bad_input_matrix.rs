@@ -539,6 +539,66 @@ fn scan_pair_with_no_overlap() {
     assert!(reg.no_overlap(), "{reg:?}");
 }
 
+// ---- Initial guesses (`--init`, `--global-gate`) -------------------------------------------
+
+/// The first line the harness prints on stderr for `run <args>` on three synthetic scans, and
+/// its exit code.
+fn run_with_args(name: &str, args: &[&str]) -> (Option<i32>, String) {
+    let out = common::scratch_dir(name);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+        .args([
+            "run",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "3",
+            "--quiet",
+            "--no-plots",
+        ])
+        .args(args)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    (
+        o.status.code(),
+        err.lines().next().unwrap_or_default().to_owned(),
+    )
+}
+
+#[test]
+fn init_odometry_without_an_odometry_channel() {
+    assert_eq!(
+        run_with_args("matrix_init_odometry", &["--init", "identity,odometry"]),
+        (
+            Some(2),
+            "error: --init odometry cannot be used on synthetic:paper: it has no odometry channel"
+                .to_owned()
+        )
+    );
+}
+
+#[test]
+fn init_with_an_unknown_mode() {
+    let (code, line) = run_with_args("matrix_init_unknown", &["--init", "odometer"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        line.contains("unknown init mode \"odometer\": expected one of identity, constant-velocity, global, odometry, reference"),
+        "{line}"
+    );
+}
+
+#[test]
+fn global_gate_that_is_not_a_distance() {
+    let (code, line) = run_with_args("matrix_global_gate", &["--global-gate=-0.2"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        line.contains("expected auto, off or a positive distance in metres, got \"-0.2\""),
+        "{line}"
+    );
+}
+
 // ---- The harness --------------------------------------------------------------------------
 
 /// A run over a synthetic dataset with scan 2 replaced by `scan`.

@@ -310,3 +310,71 @@ fn a_global_start_gates_the_surface_metrics() {
     // HD_ICP runs the paper's loop whatever the gate option.
     assert_eq!(gated.pairs[1].tx_m, ungated.pairs[1].tx_m);
 }
+
+/// `--init odometry` starts at the odometry's motion between the scans; it is refused on a
+/// dataset without an odometry channel and on one whose odometry is the reference itself
+/// (CARMEN's corrected logs), where it would be the reference start under another name.
+#[test]
+fn an_odometry_start_takes_the_odometry_and_needs_an_independent_one() {
+    let mut ds = generate(&Scenario {
+        n_scans: 12,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let e = run(&ds, &["HD_ICP"], "odometry").unwrap_err().to_string();
+    assert_eq!(
+        e,
+        "--init odometry cannot be used on synthetic:paper: it has no odometry channel"
+    );
+    // An odometry that is the reference's own poses: no independent odometry.
+    let poses: Vec<datasets::Pose2> = ds
+        .reference
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let t = p.scan_pose().unwrap();
+            datasets::Pose2 {
+                x_m: t.translation.x,
+                y_m: t.translation.y,
+                yaw_rad: t.rotation.angle(),
+            }
+        })
+        .collect();
+    ds.odometry = Some(poses.clone());
+    let copied = ds.clone().checked();
+    let e = run(&copied, &["HD_ICP"], "odometry")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("its odometry equals the reference poses"), "{e}");
+    // An odometry of its own: the reference's steps, each 2 cm and 0.2° off (a wheel slip).
+    let mut slipped = poses.clone();
+    let mut drift = nalgebra::Isometry2::identity();
+    for (k, p) in slipped.iter_mut().enumerate().skip(1) {
+        let step = poses[k - 1].isometry().inverse() * poses[k].isometry();
+        let slip = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.02, 0.0), 0.2f64.to_radians());
+        drift = drift * step * slip;
+        let at = poses[0].isometry() * drift;
+        *p = datasets::Pose2 {
+            x_m: at.translation.x,
+            y_m: at.translation.y,
+            yaw_rad: at.rotation.angle(),
+        };
+    }
+    ds.odometry = Some(slipped.clone());
+    let ds = ds.checked();
+    let r = run(&ds, &["HD_ICP", "HD_GICP"], "odometry").unwrap();
+    assert!(r.pairs.iter().all(|p| p.init == InitMode::Odometry));
+    let identity = run(&ds, &["HD_ICP", "HD_GICP"], "identity").unwrap();
+    for v in 0..2 {
+        // Started 2 cm from the truth rather than a whole step (0.24 m) away.
+        assert!(
+            r.variants[v].iterations_mean < identity.variants[v].iterations_mean,
+            "{}: odometry {} vs identity {} iterations",
+            r.variants[v].name,
+            r.variants[v].iterations_mean,
+            identity.variants[v].iterations_mean
+        );
+        assert_eq!(r.variants[v].failure_rate, 0.0);
+    }
+}
