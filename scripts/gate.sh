@@ -14,6 +14,6 @@ for ds in marina synthetic-paper; do
     status=2
     continue
   fi
-  ./target/release/icp-eval gate --baseline "reports/baseline/$ds.json" --current "$tmp/$ds/summary.json" || status=$?
+  cargo run --release --locked -q -p eval -- gate --baseline "reports/baseline/$ds.json" --current "$tmp/$ds/summary.json" || status=$?
 done
 exit $status

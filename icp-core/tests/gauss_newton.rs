@@ -185,6 +185,14 @@ proptest! {
         ),
         (tx, ty, theta) in (-1.0..1.0f64, -1.0..1.0f64, -0.3..0.3f64),
     ) {
+        // Two points (almost) on top of each other make an ill-conditioned problem, whose
+        // optimum Gauss-Newton reaches only to the conditioning's precision (a shrunk case of
+        // coincident points missed the 1e-12 relative cost check by 2.9e-12): the property is
+        // stated for well-posed problems; degenerate ones are the conditioning flag's.
+        let apart = points.iter().enumerate().all(|(i, a)| {
+            points[..i].iter().all(|b| (a.0 - b.0).hypot(a.1 - b.1) > 0.5)
+        });
+        prop_assume!(apart);
         let p = problem(&points, Isometry2::new(Vector2::new(tx, ty), theta));
         for (name, metric) in metrics() {
             let t = gauss_newton(&p, metric.as_ref());
@@ -195,8 +203,14 @@ proptest! {
             let cost = |inc: Isometry2<f64>| metric.cost(&set, &p.weights, &inc);
             let (shift, turn, lowest) = pattern_search(cost);
             let at_gn = metric.cost(&set, &p.weights, &Isometry2::identity());
+            // The cost's own rounding: each residual is a difference of coordinates up to
+            // ~40 m, so it carries about ε·40 m of error, and the cost Σ w e² about
+            // 2·ε·40·Σ w|e| ≤ 2·ε·40·sqrt(Σw · cost) (Cauchy–Schwarz); a search that gains
+            // less than that has found nothing (seen: 2e-19 at a cost of 1.2e-7).
+            let weight_sum: f64 = p.weights.iter().sum();
+            let rounding = 8.0 * f64::EPSILON * 40.0 * (weight_sum * at_gn).sqrt();
             prop_assert!(
-                lowest >= at_gn - 1e-12 * at_gn.max(1e-12),
+                lowest >= at_gn - 1e-12 * at_gn - rounding,
                 "{name}: the search lowered the cost from {at_gn} to {lowest}"
             );
             prop_assert!(
