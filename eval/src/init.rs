@@ -69,6 +69,14 @@ pub const MODES: [(InitMode, &str, &str); 5] = [
 ];
 
 impl InitMode {
+    /// True for a start known to lie close to the true motion: the global search's best pose
+    /// (within about a cell of the best alignment) and the reference motion (the diagnostic
+    /// of a perfect start). Registrations from such a start gate their correspondences
+    /// ([`crate::start_gate`]).
+    pub fn is_close(self) -> bool {
+        matches!(self, Self::Global | Self::Reference)
+    }
+
     /// Its name on the command line and in the reports.
     pub fn name(self) -> &'static str {
         MODES
@@ -163,6 +171,12 @@ impl InitChain {
     /// True when the chain starts some registration at a global search's result.
     pub fn global(&self) -> bool {
         self.0.contains(&InitMode::Global)
+    }
+
+    /// True when some registration of the chain starts close to the true motion
+    /// ([`InitMode::is_close`]).
+    pub fn close_starts(&self) -> bool {
+        self.0.iter().any(|m| m.is_close())
     }
 
     /// True when a pair's start depends on the previous pair's result (the pairs of a variant

@@ -106,8 +106,8 @@ pub fn evaluate(
     }
     setup.init.check(ds)?;
     progress.set_length((setup.variants.len() * pairs.len()) as u64);
-    let from_global: Vec<Option<Box<dyn Registrar>>> = setup
-        .global_start_specs()?
+    let close: Vec<Option<Box<dyn Registrar>>> = setup
+        .close_start_specs()?
         .into_iter()
         .map(|s| {
             s.map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
@@ -118,7 +118,7 @@ pub fn evaluate(
         chain: &setup.init,
         global: &setup.global,
         check: setup.global_check == GlobalChecks::On,
-        from_global: &from_global,
+        close: &close,
     };
     let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
     progress.finish_and_clear();

@@ -12,7 +12,7 @@ use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
 use eval::report::RunReport;
-use eval::start_gate::GlobalGate;
+use eval::start_gate::StartGate;
 use eval::{
     evaluate, write_outputs, EvalSetup, GlobalChecks, OffsetChoice, OutputDir, ReferenceChecks,
 };
@@ -187,11 +187,12 @@ struct RunArgs {
     /// a result far from a clearly better pose is flagged suspect.
     #[arg(long, value_enum, default_value_t = GlobalChecks::On)]
     global_check: GlobalChecks,
-    /// Correspondence gate of registrations started at the global search, for variants whose
-    /// metric measures along a surface normal and has no gate of its own: auto (2 cells of
-    /// the search, 0.2 m by default), off, or a distance in metres.
+    /// Correspondence gate of registrations started close to the motion (at the global
+    /// search's pose or the reference), for variants whose metric measures along a surface
+    /// normal and has no gate of its own: auto (2 cells of the search, 0.2 m by default), off,
+    /// or a distance in metres.
     #[arg(long, default_value = "auto")]
-    global_gate: GlobalGate,
+    start_gate: StartGate,
     /// Half-width of the global search's translation window around the identity, m.
     #[arg(long, default_value_t = GlobalParams::default().window_m)]
     global_window_m: f64,
@@ -563,7 +564,7 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
     .with_reference_checks(args.reference_checks)
     .with_init(args.init.clone())
     .with_global(args.global()?, args.global_check)
-    .with_global_gate(args.global_gate);
+    .with_start_gate(args.start_gate);
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -577,7 +578,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         .with_reference_checks(run.reference_checks)
         .with_init(run.init.clone())
         .with_global(run.global()?, run.global_check)
-        .with_global_gate(run.global_gate);
+        .with_start_gate(run.start_gate);
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,

@@ -340,17 +340,17 @@ pub fn table_md(report: &RunReport) -> String {
         "Initial guess: {} (`--init`; a chain tries the next mode while a registration is flagged).\n",
         report.config.init
     );
-    if !report.config.global_gated.is_empty() {
+    if !report.config.start_gated.is_empty() {
         let gated: Vec<String> = report
             .config
-            .global_gated
+            .start_gated
             .iter()
             .map(|(name, gate_m)| format!("{name} at {gate_m} m"))
             .collect();
         let _ = writeln!(
             out,
-            "Registrations started at the global search gate their correspondences (`--global-gate {}`; surface metrics without a gate of their own): {}.\n",
-            report.config.global_gate,
+            "Registrations started close to the motion (at the global search's pose or the reference) gate their correspondences (`--start-gate {}`; surface metrics without a gate of their own): {}.\n",
+            report.config.start_gate,
             gated.join(", ")
         );
     }

@@ -13,7 +13,7 @@ use crate::init::{InitChain, InitMode};
 use crate::outcome::{self, FlagQuality};
 use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
 use crate::runner::{PairRun, Runs};
-use crate::start_gate::{self, GlobalGate};
+use crate::start_gate::{self, StartGate};
 use crate::stats::{median_p95, Stats};
 use crate::status::StatusKind;
 use icp_core::global::GlobalParams;
@@ -351,14 +351,15 @@ pub struct RunConfig {
     /// Whether results were checked against it.
     #[serde(default)]
     pub global_check: GlobalChecks,
-    /// How registrations started at the global search gate their correspondences.
+    /// How registrations started close to the motion (the global search's pose, the
+    /// reference) gate their correspondences.
     #[serde(default)]
-    pub global_gate: GlobalGate,
-    /// The variants whose global starts were gated, and at what distance (m): those whose
+    pub start_gate: StartGate,
+    /// The variants whose close starts were gated, and at what distance (m): those whose
     /// metric measures along a surface normal and has no gate of its own
-    /// ([`crate::start_gate`]); empty when no registration starts at the search.
+    /// ([`crate::start_gate`]); empty when no registration starts close.
     #[serde(default)]
-    pub global_gated: Vec<(String, f64)>,
+    pub start_gated: Vec<(String, f64)>,
 }
 
 /// The whole run.
@@ -414,8 +415,8 @@ pub struct EvalSetup {
     /// Whether every result is checked against the pair's global search (a result far from a
     /// clearly better pose is flagged suspect).
     pub global_check: GlobalChecks,
-    /// How registrations started at the global search gate their correspondences.
-    pub global_gate: GlobalGate,
+    /// How registrations started close to the motion gate their correspondences.
+    pub start_gate: StartGate,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -443,25 +444,26 @@ impl EvalSetup {
             init: InitChain::default(),
             global: GlobalParams::default(),
             global_check: GlobalChecks::Off,
-            global_gate: GlobalGate::default(),
+            start_gate: StartGate::default(),
         })
     }
 
     /// The same setup with the correspondence gate `gate` of registrations started at the
     /// global search.
-    pub fn with_global_gate(mut self, gate: GlobalGate) -> Self {
-        self.global_gate = gate;
+    pub fn with_start_gate(mut self, gate: StartGate) -> Self {
+        self.start_gate = gate;
         self
     }
 
-    /// Per variant, the spec a start from the global search runs instead of it, when the
-    /// chain has such starts and they are gated ([`crate::start_gate`]); empty when none is.
+    /// Per variant, the spec a close start (the global search's pose or the reference,
+    /// [`InitMode::is_close`]) runs instead of it, when the chain has such starts and they are
+    /// gated ([`crate::start_gate`]); empty when none is.
     /// A variant with a stage written in user code (its spec does not build) runs as it is.
-    pub fn global_start_specs(&self) -> Result<Vec<Option<VariantSpec>>, ConfigError> {
+    pub fn close_start_specs(&self) -> Result<Vec<Option<VariantSpec>>, ConfigError> {
         let Some(gate_m) = self
             .init
-            .global()
-            .then(|| self.global_gate.metres(&self.global))
+            .close_starts()
+            .then(|| self.start_gate.metres(&self.global))
             .flatten()
         else {
             return Ok(Vec::new());
@@ -651,9 +653,9 @@ pub fn build(
             init: setup.init.clone(),
             global: setup.global,
             global_check: setup.global_check,
-            global_gate: setup.global_gate,
-            global_gated: setup
-                .global_start_specs()
+            start_gate: setup.start_gate,
+            start_gated: setup
+                .close_start_specs()
                 .unwrap_or_default()
                 .into_iter()
                 .flatten()

@@ -73,9 +73,10 @@ pub struct RunPlan<'a> {
     pub global: &'a GlobalParams,
     /// Whether every result is checked against the pair's global search.
     pub check: bool,
-    /// Per registrar (same order), the one a start from the global search uses instead, when
-    /// that start gates its correspondences ([`crate::start_gate`]); empty: none does.
-    pub from_global: &'a [Option<Box<dyn Registrar>>],
+    /// Per registrar (same order), the one a close start (the global search's pose, the
+    /// reference) uses instead, when such starts gate their correspondences
+    /// ([`crate::start_gate`]); empty: none does.
+    pub close: &'a [Option<Box<dyn Registrar>>],
 }
 
 impl RunPlan<'_> {
@@ -84,9 +85,9 @@ impl RunPlan<'_> {
         self.check || self.chain.global()
     }
 
-    /// The registrar a global start of variant `v` uses, when it is another one.
+    /// The registrar a close start of variant `v` uses, when it is another one.
     fn gated(&self, v: usize) -> Option<&dyn Registrar> {
-        self.from_global.get(v).and_then(|r| r.as_deref())
+        self.close.get(v).and_then(|r| r.as_deref())
     }
 }
 
@@ -214,8 +215,8 @@ impl BlockJob<'_> {
         }
     }
 
-    /// Registers `pair` with the variant (its registrar, and the one a global start uses
-    /// when that differs) from each start of the chain in turn, until a result is not flagged
+    /// Registers `pair` with the variant (its registrar, and the one a close start uses when
+    /// that differs) from each start of the chain in turn, until a result is not flagged
     /// (else the last one is kept); `previous` is the variant's previous result and `searched`
     /// the pair's global search.
     fn run(
@@ -226,7 +227,7 @@ impl BlockJob<'_> {
         previous: Option<&Previous>,
         searched: Option<&Searched>,
     ) -> PairRun {
-        let (reg, reg_global) = variant;
+        let (reg, reg_close) = variant;
         let params = reg.surface_params();
         let prepared_scan =
             |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
@@ -237,8 +238,8 @@ impl BlockJob<'_> {
         for (attempt, &mode) in self.plan.chain.modes().iter().enumerate() {
             let guess = searched.map(|s| &s.guess);
             let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
-            let chosen = match (used, reg_global) {
-                (InitMode::Global, Some(gated)) => gated,
+            let chosen = match reg_close {
+                Some(gated) if used.is_close() => gated,
                 _ => reg,
             };
             let clock = Instant::now();
@@ -474,7 +475,7 @@ mod tests {
             chain: &chain,
             global: &GlobalParams::default(),
             check: true,
-            from_global: &[],
+            close: &[],
         };
         let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS);
         assert_eq!(whole.per_variant[0].len(), pairs.len());

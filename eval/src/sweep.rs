@@ -134,7 +134,7 @@ pub fn sweep(
             .with_reference_checks(base.reference_checks)
             .with_init(base.init.clone())
             .with_global(base.global, base.global_check)
-            .with_global_gate(base.global_gate);
+            .with_start_gate(base.start_gate);
         let report = evaluate(ds, &setup, progress)?;
         for v in &report.variants {
             let e = &v.plausible_reference;

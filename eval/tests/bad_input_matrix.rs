@@ -539,7 +539,7 @@ fn scan_pair_with_no_overlap() {
     assert!(reg.no_overlap(), "{reg:?}");
 }
 
-// ---- Initial guesses (`--init`, `--global-gate`) -------------------------------------------
+// ---- Initial guesses (`--init`, `--start-gate`) -------------------------------------------
 
 /// The first line the harness prints on stderr for `run <args>` on three synthetic scans, and
 /// its exit code.
@@ -590,8 +590,8 @@ fn init_with_an_unknown_mode() {
 }
 
 #[test]
-fn global_gate_that_is_not_a_distance() {
-    let (code, line) = run_with_args("matrix_global_gate", &["--global-gate=-0.2"]);
+fn start_gate_that_is_not_a_distance() {
+    let (code, line) = run_with_args("matrix_start_gate", &["--start-gate=-0.2"]);
     assert_eq!(code, Some(2));
     assert!(
         line.contains("expected auto, off or a positive distance in metres, got \"-0.2\""),

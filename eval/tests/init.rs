@@ -287,17 +287,17 @@ fn a_global_start_gates_the_surface_metrics() {
         let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
             .unwrap()
             .with_init("global".parse().unwrap())
-            .with_global_gate(gate.parse().unwrap());
+            .with_start_gate(gate.parse().unwrap());
         evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
     };
     let gated = run("auto");
     assert_eq!(
-        gated.config.global_gated,
+        gated.config.start_gated,
         vec![("PL_ICP".to_owned(), 0.2)],
         "the surface metric is gated, the paper's point-to-point is not"
     );
     let ungated = run("off");
-    assert!(ungated.config.global_gated.is_empty());
+    assert!(ungated.config.start_gated.is_empty());
     let err = |r: &RunReport| r.pairs[0].trans_err_m.unwrap();
     assert_eq!(gated.pairs[0].init, InitMode::Global);
     assert!(err(&gated) < 1e-3, "gated: {:?}", gated.pairs[0]);
@@ -309,6 +309,22 @@ fn a_global_start_gates_the_surface_metrics() {
     );
     // HD_ICP runs the paper's loop whatever the gate option.
     assert_eq!(gated.pairs[1].tx_m, ungated.pairs[1].tx_m);
+    // A reference start is gated alike; an identity start is not (how far it is from the
+    // motion is not known), so there PL_ICP runs as it is.
+    let from = |init: &str| {
+        let specs = [builtin("PL_ICP").unwrap()];
+        let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
+            .unwrap()
+            .with_init(init.parse().unwrap());
+        evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
+    };
+    let reference = from("reference");
+    assert_eq!(
+        reference.config.start_gated,
+        vec![("PL_ICP".to_owned(), 0.2)]
+    );
+    assert!(err(&reference) < 1e-3, "{:?}", reference.pairs[0]);
+    assert!(from("identity").config.start_gated.is_empty());
 }
 
 /// `--init odometry` starts at the odometry's motion between the scans; it is refused on a
