@@ -29,10 +29,16 @@ pub struct Cells {
 /// Most cells along one side.
 const MAX_CELLS_PER_SIDE: usize = 1 << 15;
 
+/// Most cells in all (16 M: 64 MiB of cell starts, twice while sorting). Without it a scan
+/// spread along both axes (one far spurious return at tens of kilometres) could ask for
+/// 2^15 × 2^15 cells, 4 GiB. The largest grids of the data here have ~1.6 M cells (the CARMEN
+/// aces log), far below it, so no result changes.
+const MAX_CELLS: usize = 1 << 24;
+
 impl Cells {
     /// Buckets `points` (non-empty, finite, at most `u32::MAX`) into cells whose side is
     /// `side(width, height)` of their bounding box, widened where the grid would have more than
-    /// `2^15` cells along a side.
+    /// `2^15` cells along a side or `2^24` in all.
     pub fn new(points: &[Point2<f64>], side: impl FnOnce(f64, f64) -> f64) -> Self {
         let (mut x0, mut y0, mut x1, mut y1) = (
             f64::INFINITY,
@@ -54,12 +60,20 @@ impl Cells {
         if !(h.is_finite() && h > 0.0) {
             h = (w.max(hgt) / points.len() as f64).max(1e-9);
         }
-        let cells = |extent: f64| {
+        let cells = |extent: f64, h: f64| {
             ((extent / h).floor() as usize)
                 .saturating_add(1)
                 .min(MAX_CELLS_PER_SIDE)
         };
-        let (nx, ny) = (cells(w), cells(hgt));
+        if cells(w, h).saturating_mul(cells(hgt, h)) > MAX_CELLS {
+            // Widened so that the product fits, (w / h' + 1)(hgt / h' + 1) ≤ MAX_CELLS: from
+            // the side that makes w·hgt / h'² fit, up by 1 % until the floors' +1s fit too.
+            h = h.max((w * hgt / MAX_CELLS as f64).sqrt());
+            while cells(w, h).saturating_mul(cells(hgt, h)) > MAX_CELLS {
+                h *= 1.01;
+            }
+        }
+        let (nx, ny) = (cells(w, h), cells(hgt, h));
         let h = (w / nx as f64).max(hgt / ny as f64).max(h);
         let inv_h = 1.0 / h;
         let cell_of = |p: &Point2<f64>| -> usize {
@@ -97,6 +111,12 @@ impl Cells {
             max_fx: (nx - 1) as f64,
             max_fy: (ny - 1) as f64,
         }
+    }
+
+    /// Cells in all.
+    #[cfg(test)]
+    fn len(&self) -> usize {
+        self.nx * self.ny
     }
 
     /// Cell coordinates of `q`, clamped into the grid.
@@ -150,5 +170,36 @@ impl Cells {
         };
         // From infinity, as NaN-ignoring minima: a NaN query gets no bound (infinity).
         inf.min(left).min(right).min(below).min(above)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scan_spread_along_both_axes_gets_a_bounded_grid() {
+        // Returns near the sensor and one spurious return 30 km away along the diagonal:
+        // 0.1 m cells would be 300,000 a side.
+        let mut points: Vec<Point2<f64>> = (0..100)
+            .map(|i| Point2::new((i % 10) as f64 * 0.3, (i / 10) as f64 * 0.3))
+            .collect();
+        points.push(Point2::new(30_000.0, 30_000.0));
+        let cells = Cells::new(&points, |_, _| 0.1);
+        assert!(cells.len() <= MAX_CELLS, "{} cells", cells.len());
+        assert!(cells.nx <= MAX_CELLS_PER_SIDE && cells.ny <= MAX_CELLS_PER_SIDE);
+        // Every point is in the cell its coordinates say.
+        let mut seen = vec![false; points.len()];
+        for cy in 0..cells.ny {
+            for k in cells.row((0, cells.nx - 1), cy) {
+                let p = cells.points[k];
+                assert_eq!(cells.cell_xy(&p).1, cy);
+                seen[cells.ids[k] as usize] = true;
+            }
+        }
+        assert!(seen.iter().all(|&s| s));
+        // A small scan keeps the side it asked for.
+        let small = Cells::new(&points[..100], |_, _| 0.1);
+        assert!((small.h - 0.1).abs() < 1e-12, "{}", small.h);
     }
 }
