@@ -599,6 +599,27 @@ fn start_gate_that_is_not_a_distance() {
     );
 }
 
+#[test]
+fn init_reference_without_a_rigid_reference() {
+    // GNSS-like positions with a separate heading (the marina kind): no rigid pose to start at.
+    let mut ds = generate(&Scenario {
+        n_scans: 3,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    for p in ds.reference.as_mut().unwrap() {
+        p.scan_yaw_rad = None;
+    }
+    let setup = EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0))
+        .unwrap()
+        .with_init("reference".parse().unwrap());
+    assert_eq!(
+        error_of(evaluate(&ds, &setup, &ProgressBar::hidden()).map(|r| r.dataset.pairs)),
+        "--init reference cannot be used on synthetic:paper: its reference is not a rigid 2D \
+         pose of the scanner"
+    );
+}
+
 // ---- The harness --------------------------------------------------------------------------
 
 /// A run over a synthetic dataset with scan 2 replaced by `scan`.
