@@ -21,8 +21,9 @@ use rayon::prelude::*;
 use crate::init::{self, InitChain, InitMode, Previous};
 use crate::status::{GlobalCheck, PairStatus};
 
-/// One registration's outcome and its wall time.
-#[derive(Clone, Debug)]
+/// One registration's outcome and its wall time (serialized whole into the part files of a
+/// sharded run, see [`crate::shard`]).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct PairRun {
     /// The registration, or why it failed.
     pub result: Result<Registration, IcpError>,
@@ -41,7 +42,7 @@ pub struct PairRun {
 }
 
 /// The global search of one pair (made once, shared by every variant).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct PairSearch {
     /// Its best pose and score, or why it could not run (the pair's registrations then start
     /// at the identity where the chain says global, and are not checked).
@@ -51,7 +52,7 @@ pub struct PairSearch {
 }
 
 /// Every registration of a run.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Runs {
     /// `per_variant[variant][pair]`.
     pub per_variant: Vec<Vec<PairRun>>,

@@ -60,6 +60,7 @@ pub mod registration;
 pub mod registry;
 pub mod robust;
 pub mod scan;
+pub mod static_str;
 pub mod select;
 pub mod sensor;
 pub mod surface;
