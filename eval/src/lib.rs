@@ -8,7 +8,7 @@
 
 use std::path::PathBuf;
 
-use datasets::{Dataset, DatasetError};
+use datasets::{Dataset, DatasetError, ScanPair, SkippedPair};
 use icp_core::{ConfigError, IcpError};
 use indicatif::ProgressBar;
 
@@ -18,6 +18,7 @@ pub mod compare;
 pub mod gate;
 pub mod init;
 pub mod listing;
+pub mod merge;
 pub mod outcome;
 pub mod outdir;
 pub mod output;
@@ -27,6 +28,7 @@ pub mod reference;
 pub mod report;
 pub mod runner;
 pub mod scaling;
+pub mod shard;
 pub mod stats;
 pub mod status;
 pub mod sweep;
@@ -90,6 +92,24 @@ pub fn evaluate(
     setup: &EvalSetup,
     progress: &ProgressBar,
 ) -> Result<RunReport, EvalError> {
+    let (pairs, skipped) = checked_pairs(ds, setup)?;
+    progress.set_length((setup.variants.len() * pairs.len()) as u64);
+    let plan = runner::RunPlan {
+        chain: &setup.init,
+        global: &setup.global,
+        check: setup.global_check == GlobalChecks::On,
+    };
+    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    progress.finish_and_clear();
+    Ok(report::build(ds, &pairs, skipped, setup, &runs))
+}
+
+/// The consecutive pairs of `ds` (and those skipped) that `setup` registers, once `setup` is
+/// checked against `ds`: what [`evaluate`] and a shard of a run (see [`shard`]) start from.
+pub fn checked_pairs(
+    ds: &Dataset,
+    setup: &EvalSetup,
+) -> Result<(Vec<ScanPair>, Vec<SkippedPair>), EvalError> {
     let (pairs, skipped) = ds.consecutive_pairs();
     if pairs.is_empty() && skipped.is_empty() {
         return Err(EvalError::NothingToRegister {
@@ -104,15 +124,7 @@ pub fn evaluate(
         }
     }
     setup.init.check(ds)?;
-    progress.set_length((setup.variants.len() * pairs.len()) as u64);
-    let plan = runner::RunPlan {
-        chain: &setup.init,
-        global: &setup.global,
-        check: setup.global_check == GlobalChecks::On,
-    };
-    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
-    progress.finish_and_clear();
-    Ok(report::build(ds, &pairs, skipped, setup, &runs))
+    Ok((pairs, skipped))
 }
 
 /// Writes `summary.json`, `pairs.csv`, `table.md`, `config.json`, one TUM trajectory per

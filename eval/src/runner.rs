@@ -154,7 +154,21 @@ pub fn run_all(
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
 ) -> Runs {
-    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS)
+    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS, 0)
+}
+
+/// [`run_all`] over `pairs`, the run's pairs from position `first` on (a shard of a run,
+/// see [`crate::shard`]): each pair runs its variants in the order it has in the whole run,
+/// so a shard repeats the whole run's registrations exactly.
+pub fn run_from(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    first: usize,
+    registrars: &[Box<dyn Registrar>],
+    plan: &RunPlan<'_>,
+    progress: &ProgressBar,
+) -> Runs {
+    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS, first)
 }
 
 /// A pair's global search with the reference's likelihood grid, which scores the results.
@@ -258,7 +272,8 @@ impl BlockJob<'_> {
     }
 }
 
-/// [`run_all`] with blocks of `block_pairs` pairs.
+/// [`run_all`] with blocks of `block_pairs` pairs, the first of `pairs` at position `first`
+/// of the run.
 fn run_blocks(
     ds: &Dataset,
     pairs: &[ScanPair],
@@ -266,6 +281,7 @@ fn run_blocks(
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
     block_pairs: usize,
+    first: usize,
 ) -> Runs {
     let searches = plan.searches();
     let params = distinct_surface_params(
@@ -346,7 +362,7 @@ fn run_blocks(
             .map_init(
                 || (Workspace::default(), GlobalWorkspace::default()),
                 |(workspace, gws), (i, &pair)| {
-                    let position = b * block_pairs + i;
+                    let position = first + b * block_pairs + i;
                     let (searched, search) = if searches {
                         let (s, info) = job.search(pair, gws);
                         (s, Some(info))
@@ -461,10 +477,10 @@ mod tests {
             global: &GlobalParams::default(),
             check: true,
         };
-        let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS);
+        let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS, 0);
         assert_eq!(whole.per_variant[0].len(), pairs.len());
         for block_pairs in [1, 2, 5] {
-            let blocks = run_blocks(&ds, &pairs, &registrars, &plan, &progress, block_pairs);
+            let blocks = run_blocks(&ds, &pairs, &registrars, &plan, &progress, block_pairs, 0);
             assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
             // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
             // holds only the scans it shares with the block before (scan 10).
