@@ -236,7 +236,10 @@ pub fn resolve(
     };
     let mut found: Vec<(Shard, ShardOrigin)> = Vec::new();
     if let Some(s) = flag {
-        found.push((Shard::new(s.index, s.count, &ShardOrigin::Option)?, ShardOrigin::Option));
+        found.push((
+            Shard::new(s.index, s.count, &ShardOrigin::Option)?,
+            ShardOrigin::Option,
+        ));
     }
     if let Some(id) = number(SLURM_ARRAY_TASK_ID)? {
         let need = |missing: &'static str| ShardError::Incomplete {
@@ -500,7 +503,11 @@ impl Plan {
                 setups
                     .iter()
                     .map(|s| RunJobs {
-                        cut: if sequential { Cut::Variants } else { Cut::Pairs },
+                        cut: if sequential {
+                            Cut::Variants
+                        } else {
+                            Cut::Pairs
+                        },
                         units: if sequential {
                             s.variants.len()
                         } else {
@@ -679,7 +686,14 @@ mod tests {
 
     #[test]
     fn every_unit_lands_in_exactly_one_part_and_parts_are_contiguous() {
-        for units in [vec![0], vec![1], vec![5], vec![3, 4], vec![4, 0, 7], vec![30, 30, 30]] {
+        for units in [
+            vec![0],
+            vec![1],
+            vec![5],
+            vec![3, 4],
+            vec![4, 0, 7],
+            vec![30, 30, 30],
+        ] {
             let runs: Vec<RunJobs> = units
                 .iter()
                 .map(|&u| RunJobs {
