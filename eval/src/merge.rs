@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::basin::BasinRow;
-use crate::runner::{PairRun, Runs};
+use crate::runner::Runs;
 use crate::shard::{slices, Cut, Part, Plan, SliceResults, Work, PART_FORMAT};
 
 /// Part files that cannot be merged.
@@ -257,9 +257,12 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
     let runs = runs
         .into_iter()
         .map(|r| {
-            r.unwrap_or_else(|| match basin {
-                true => MergedRun::Basin(Vec::new()),
-                false => MergedRun::Runs(empty_runs(plan.variants.len())),
+            r.unwrap_or_else(|| {
+                if basin {
+                    MergedRun::Basin(Vec::new())
+                } else {
+                    MergedRun::Runs(empty_runs(plan.variants.len()))
+                }
             })
         })
         .collect();
@@ -288,7 +291,7 @@ fn append(all: &mut Runs, more: Runs, cut: Cut) {
                 all.per_variant = more.per_variant;
             } else {
                 for (variant, runs) in all.per_variant.iter_mut().zip(more.per_variant) {
-                    variant.extend::<Vec<PairRun>>(runs);
+                    variant.extend(runs);
                 }
             }
             all.searches.extend(more.searches);
