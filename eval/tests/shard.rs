@@ -374,7 +374,7 @@ fn a_slurm_array_task_shards_a_plain_run_and_says_so() {
     let dir = common::scratch_dir("shard_slurm");
     let out = dir.join("task");
     let o = ok(command()
-        .args(&RUN)
+        .args(RUN)
         .args(["--out", out.to_str().unwrap()])
         .env("SLURM_ARRAY_TASK_ID", "5")
         .env("SLURM_ARRAY_TASK_MIN", "4")
@@ -392,7 +392,7 @@ fn a_slurm_array_task_shards_a_plain_run_and_says_so() {
     // --no-shard: the whole run, in the same job.
     let whole = dir.join("whole");
     ok(command()
-        .args(&RUN)
+        .args(RUN)
         .args(["--no-shard", "--out", whole.to_str().unwrap()])
         .env("SLURM_ARRAY_TASK_ID", "5")
         .env("SLURM_ARRAY_TASK_MIN", "4")
@@ -402,7 +402,7 @@ fn a_slurm_array_task_shards_a_plain_run_and_says_so() {
     assert!(whole.join("summary.json").is_file());
     // A bad variable: exit 2 naming it.
     let o = command()
-        .args(&RUN)
+        .args(RUN)
         .args(["--out", dir.join("bad").to_str().unwrap()])
         .env("JOB_COMPLETION_INDEX", "two")
         .output()
