@@ -45,31 +45,25 @@ fn args(base: &[&str], more: &[&str]) -> Vec<String> {
     base.iter().chain(more).map(|s| s.to_string()).collect()
 }
 
-/// Runs `base` whole into `single`, and in `n` shards merged into `merged`.
-fn single_and_merged(base: &[&str], n: usize, dir: &Path) -> (PathBuf, PathBuf) {
+/// Runs `base` whole into `dir/single`, and for each of `shard_counts` in that many shards
+/// merged into `dir/nN/merged`, and checks each merged run equals the single run (timing
+/// aside); per count, the merged directory and how many files were compared.
+fn merged_equal_single(base: &[&str], dir: &Path, shard_counts: &[usize]) -> Vec<(PathBuf, usize)> {
     let single = dir.join("single");
     ok(icp_eval(&args(base, &["--out", single.to_str().unwrap()])));
-    let merged = merge_shards(base, n, dir);
-    (single, merged)
+    shard_counts
+        .iter()
+        .map(|&n| {
+            let merged = merge_shards(base, n, &dir.join(format!("n{n}")));
+            let files = assert_same_outputs(&single, &merged);
+            (merged, files)
+        })
+        .collect()
 }
 
 /// Runs `base` in `n` shards (each into `dir/parts/K`) and merges them into `dir/merged`.
 fn merge_shards(base: &[&str], n: usize, dir: &Path) -> PathBuf {
-    let mut parts = Vec::new();
-    for k in 0..n {
-        let out = dir.join(format!("parts/{k}"));
-        let shard = format!("{k}/{n}");
-        let o = ok(icp_eval(&args(
-            base,
-            &["--shard", &shard, "--out", out.to_str().unwrap()],
-        )));
-        let said = String::from_utf8_lossy(&o.stderr);
-        assert!(
-            said.contains(&format!("shard {shard} (from --shard)")),
-            "a shard says which it is: {said}"
-        );
-        parts.push(out.to_str().unwrap().to_owned());
-    }
+    let parts = shard_dirs(base, n, dir);
     let merged = dir.join("merged");
     let mut merge = vec!["merge".to_owned(), "--quiet".to_owned()];
     merge.extend(parts);
@@ -156,13 +150,8 @@ fn run_shards_merge_to_the_single_run_with_identity_and_constant_velocity_starts
         let mut base: Vec<&str> = RUN.to_vec();
         base.extend(["--init", init]);
         let dir = common::scratch_dir(&format!("shard_run_{}", init.len()));
-        let single = dir.join("single");
-        ok(icp_eval(&args(&base, &["--out", single.to_str().unwrap()])));
         // 1 shard, 3, and 7 (more than the 3 variants a constant-velocity run is cut into).
-        for n in [1, 3, 7] {
-            let sub = dir.join(format!("n{n}"));
-            let merged = merge_shards(&base, n, &sub);
-            let files = assert_same_outputs(&single, &merged);
+        for (_, files) in merged_equal_single(&base, &dir, &[1, 3, 7]) {
             assert!(files >= 7, "{files} files compared");
         }
     }
@@ -171,17 +160,17 @@ fn run_shards_merge_to_the_single_run_with_identity_and_constant_velocity_starts
 #[test]
 fn figures_of_a_merged_run_equal_the_single_runs() {
     let base: Vec<&str> = RUN[..RUN.len() - 1].to_vec();
-    let (single, merged) = single_and_merged(&base, 3, &common::scratch_dir("shard_plots"));
-    let files = assert_same_outputs(&single, &merged);
+    let merged = merged_equal_single(&base, &common::scratch_dir("shard_plots"), &[3]);
+    let (dir, files) = &merged[0];
     assert!(
-        std::fs::read_dir(&single).unwrap().any(|e| e
+        std::fs::read_dir(dir).unwrap().any(|e| e
             .unwrap()
             .path()
             .extension()
             .is_some_and(|x| x == "png")),
         "figures were drawn"
     );
-    assert!(files > 10, "{files} files compared");
+    assert!(*files > 10, "{files} files compared");
 }
 
 #[test]
@@ -202,11 +191,7 @@ fn compare_with_a_sweep_shards_and_merges_to_the_single_run() {
         "--no-plots",
     ];
     let dir = common::scratch_dir("shard_compare");
-    let single = dir.join("single");
-    ok(icp_eval(&args(&base, &["--out", single.to_str().unwrap()])));
-    for n in [1, 3, 7] {
-        let merged = merge_shards(&base, n, &dir.join(format!("n{n}")));
-        assert_same_outputs(&single, &merged);
+    for (merged, _) in merged_equal_single(&base, &dir, &[1, 3, 7]) {
         for f in ["compare.md", "compare.json", "sweep.md", "sweep.json"] {
             assert!(merged.join(f).is_file(), "{f} written");
         }
@@ -232,11 +217,8 @@ fn basin_shards_and_merges_to_the_single_run() {
         "--no-plots",
     ];
     let dir = common::scratch_dir("shard_basin");
-    let single = dir.join("single");
-    ok(icp_eval(&args(&base, &["--out", single.to_str().unwrap()])));
-    for n in [1, 3, 7] {
-        let merged = merge_shards(&base, n, &dir.join(format!("n{n}")));
-        assert_eq!(assert_same_outputs(&single, &merged), 4);
+    for (_, files) in merged_equal_single(&base, &dir, &[1, 3, 7]) {
+        assert_eq!(files, 4);
     }
 }
 
@@ -261,16 +243,22 @@ fn the_readme_laptop_form_runs_shards_in_parallel_and_merges() {
     assert_same_outputs(&dir.join("single"), &dir.join("merged"));
 }
 
-/// `n` shards of `base` into `dir/parts/K`, the part directories returned.
+/// `n` shards of `base` into `dir/parts/K`, the part directories returned; each shard says
+/// which it runs.
 fn shard_dirs(base: &[&str], n: usize, dir: &Path) -> Vec<String> {
     (0..n)
         .map(|k| {
             let out = dir.join(format!("parts/{k}"));
             let shard = format!("{k}/{n}");
-            ok(icp_eval(&args(
+            let o = ok(icp_eval(&args(
                 base,
                 &["--shard", &shard, "--out", out.to_str().unwrap()],
             )));
+            let said = String::from_utf8_lossy(&o.stderr);
+            assert!(
+                said.contains(&format!("shard {shard} (from --shard)")),
+                "a shard says which it is: {said}"
+            );
             out.to_str().unwrap().to_owned()
         })
         .collect()
@@ -418,6 +406,15 @@ fn env(vars: &[(&str, &str)]) -> BTreeMap<String, String> {
         .collect()
 }
 
+/// A Slurm array task's variables.
+fn slurm(id: &str, min: &str, count: &str) -> BTreeMap<String, String> {
+    env(&[
+        ("SLURM_ARRAY_TASK_ID", id),
+        ("SLURM_ARRAY_TASK_MIN", min),
+        ("SLURM_ARRAY_TASK_COUNT", count),
+    ])
+}
+
 fn shard(index: usize, count: usize) -> Shard {
     Shard { index, count }
 }
@@ -447,11 +444,7 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
     }
 
     // Slurm: the index counts from SLURM_ARRAY_TASK_MIN.
-    let slurm = env(&[
-        ("SLURM_ARRAY_TASK_ID", "7"),
-        ("SLURM_ARRAY_TASK_MIN", "5"),
-        ("SLURM_ARRAY_TASK_COUNT", "3"),
-    ]);
+    let slurm = slurm("7", "5", "3");
     let got = resolve(None, None, &slurm).unwrap().unwrap();
     assert_eq!(got.0, shard(2, 3));
     assert_eq!(
@@ -478,11 +471,7 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
         Err(ShardError::Disagree { .. })
     ));
     // A stepped or sparse array (--array=5-9:2 has ids 5, 7, 9 and count 3): id 9 is beyond.
-    let sparse = env(&[
-        ("SLURM_ARRAY_TASK_ID", "9"),
-        ("SLURM_ARRAY_TASK_MIN", "5"),
-        ("SLURM_ARRAY_TASK_COUNT", "3"),
-    ]);
+    let sparse = slurm("9", "5", "3");
     assert!(matches!(
         resolve(None, None, &sparse),
         Err(ShardError::OutOfRange {
@@ -491,11 +480,7 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
             ..
         })
     ));
-    let below = env(&[
-        ("SLURM_ARRAY_TASK_ID", "1"),
-        ("SLURM_ARRAY_TASK_MIN", "2"),
-        ("SLURM_ARRAY_TASK_COUNT", "3"),
-    ]);
+    let below = slurm("1", "2", "3");
     assert!(matches!(
         resolve(None, None, &below),
         Err(ShardError::OutOfRange { .. })
@@ -505,20 +490,12 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
         resolve(None, None, &alone),
         Err(ShardError::Incomplete { .. })
     ));
-    let zero = env(&[
-        ("SLURM_ARRAY_TASK_ID", "0"),
-        ("SLURM_ARRAY_TASK_MIN", "0"),
-        ("SLURM_ARRAY_TASK_COUNT", "0"),
-    ]);
+    let zero = slurm("0", "0", "0");
     assert!(matches!(
         resolve(None, None, &zero),
         Err(ShardError::NoShards { .. })
     ));
-    let text = env(&[
-        ("SLURM_ARRAY_TASK_ID", "1"),
-        ("SLURM_ARRAY_TASK_MIN", "0"),
-        ("SLURM_ARRAY_TASK_COUNT", "4x"),
-    ]);
+    let text = slurm("1", "0", "4x");
     assert_eq!(
         resolve(None, None, &text),
         Err(ShardError::NotANumber {
