@@ -204,12 +204,32 @@ pub fn run(
             dataset: ds.provenance.name.clone(),
         });
     }
+    let chosen = chosen_pairs(ds, options);
+    let rows = run_pairs(ds, registrars, options, &chosen, progress);
+    let names: Vec<&str> = registrars.iter().map(|r| r.name()).collect();
+    Ok(report(ds, &names, options, chosen.len(), rows))
+}
+
+/// The pairs the protocol runs: every `options.pair_stride`-th consecutive pair of `ds`, with
+/// its index among them all.
+pub fn chosen_pairs(ds: &Dataset, options: &BasinOptions) -> Vec<(usize, ScanPair)> {
     let (all, _) = ds.consecutive_pairs();
-    let chosen: Vec<(usize, ScanPair)> = all
-        .into_iter()
+    all.into_iter()
         .enumerate()
         .step_by(options.pair_stride)
-        .collect();
+        .collect()
+}
+
+/// The protocol's registrations on `chosen` (some of [`chosen_pairs`]; a shard of the run
+/// runs its own, see [`crate::shard`]), in their order: `ds` has a rigid reference and
+/// `options` are valid (checked by [`run`] or the caller).
+pub fn run_pairs(
+    ds: &Dataset,
+    registrars: &[Box<dyn Registrar>],
+    options: &BasinOptions,
+    chosen: &[(usize, ScanPair)],
+    progress: &ProgressBar,
+) -> Vec<BasinRow> {
     let params: Vec<SurfaceParams> =
         distinct_surface_params(registrars.iter().map(|r| r.surface_params()));
     progress.set_length((chosen.len() * registrars.len() * options.perturbations) as u64);
@@ -272,20 +292,31 @@ pub fn run(
             rows
         })
         .collect();
-    let rows: Vec<BasinRow> = per_pair.into_iter().flatten().collect();
-    let variants = registrars
+    per_pair.into_iter().flatten().collect()
+}
+
+/// The protocol's report from the `rows` of `pairs` pairs, one summary per variant of
+/// `names` (in run order).
+pub fn report(
+    ds: &Dataset,
+    names: &[&str],
+    options: &BasinOptions,
+    pairs: usize,
+    rows: Vec<BasinRow>,
+) -> BasinReport {
+    let variants = names
         .iter()
-        .map(|reg| summarize(reg.name(), &rows, options))
+        .map(|name| summarize(name, &rows, options))
         .collect();
-    Ok(BasinReport {
+    BasinReport {
         dataset: ds.provenance.name.clone(),
         options: *options,
-        pairs: chosen.len(),
+        pairs,
         success_trans_m: SUCCESS_TRANS_M,
         success_rot_deg: SUCCESS_ROT_DEG,
         variants,
         rows,
-    })
+    }
 }
 
 fn summarize(name: &str, rows: &[BasinRow], options: &BasinOptions) -> VariantBasin {

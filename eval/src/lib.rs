@@ -8,8 +8,8 @@
 
 use std::path::PathBuf;
 
-use datasets::{Dataset, DatasetError};
-use icp_core::{ConfigError, IcpError, Registrar};
+use datasets::{Dataset, DatasetError, ScanPair, SkippedPair};
+use icp_core::{ConfigError, IcpError};
 use indicatif::ProgressBar;
 
 pub mod basin;
@@ -18,6 +18,7 @@ pub mod compare;
 pub mod gate;
 pub mod init;
 pub mod listing;
+pub mod merge;
 pub mod outcome;
 pub mod outdir;
 pub mod output;
@@ -27,6 +28,7 @@ pub mod reference;
 pub mod report;
 pub mod runner;
 pub mod scaling;
+pub mod shard;
 pub mod start_gate;
 pub mod stats;
 pub mod status;
@@ -91,6 +93,26 @@ pub fn evaluate(
     setup: &EvalSetup,
     progress: &ProgressBar,
 ) -> Result<RunReport, EvalError> {
+    let (pairs, skipped) = checked_pairs(ds, setup)?;
+    progress.set_length((setup.variants.len() * pairs.len()) as u64);
+    let close = setup.close_start_variants()?;
+    let plan = runner::RunPlan {
+        chain: &setup.init,
+        global: &setup.global,
+        check: setup.global_check == GlobalChecks::On,
+        close: &close,
+    };
+    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    progress.finish_and_clear();
+    Ok(report::build(ds, &pairs, skipped, setup, &runs))
+}
+
+/// The consecutive pairs of `ds` (and those skipped) that `setup` registers, once `setup` is
+/// checked against `ds`: what [`evaluate`] and a shard of a run (see [`shard`]) start from.
+pub fn checked_pairs(
+    ds: &Dataset,
+    setup: &EvalSetup,
+) -> Result<(Vec<ScanPair>, Vec<SkippedPair>), EvalError> {
     let (pairs, skipped) = ds.consecutive_pairs();
     if pairs.is_empty() && skipped.is_empty() {
         return Err(EvalError::NothingToRegister {
@@ -105,24 +127,7 @@ pub fn evaluate(
         }
     }
     setup.init.check(ds)?;
-    progress.set_length((setup.variants.len() * pairs.len()) as u64);
-    let close: Vec<Option<Box<dyn Registrar>>> = setup
-        .close_start_specs()?
-        .into_iter()
-        .map(|s| {
-            s.map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
-                .transpose()
-        })
-        .collect::<Result<_, ConfigError>>()?;
-    let plan = runner::RunPlan {
-        chain: &setup.init,
-        global: &setup.global,
-        check: setup.global_check == GlobalChecks::On,
-        close: &close,
-    };
-    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
-    progress.finish_and_clear();
-    Ok(report::build(ds, &pairs, skipped, setup, &runs))
+    Ok((pairs, skipped))
 }
 
 /// Writes `summary.json`, `pairs.csv`, `table.md`, `config.json`, one TUM trajectory per

@@ -11,7 +11,9 @@ use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
+use eval::merge::MergedRun;
 use eval::report::RunReport;
+use eval::shard::{Plan, RunOptions, Shard, ShardOrigin, SweepPlan, Work};
 use eval::start_gate::StartGate;
 use eval::{
     evaluate, write_outputs, EvalSetup, GlobalChecks, OffsetChoice, OutputDir, ReferenceChecks,
@@ -25,6 +27,7 @@ use icp_core::variants::{
 use icp_core::SensorModel;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Deserialize;
+use std::collections::BTreeMap;
 
 /// Weighted-ICP evaluation for 2D LIDAR (Naus & Marchel 2019): runs the variants over every
 /// consecutive scan pair and reports SOG/ΔCOG errors like the paper's Table 1, and more.
@@ -59,6 +62,39 @@ enum Command {
     Scaling(ScalingArgs),
     /// List the built-in variants and the stages a configuration file can name.
     List,
+    /// Merge the part files of a sharded `run`, `compare` or `basin` (`--shard K/N`) into
+    /// the files a single run writes (timings aside); checks that the parts are of one plan
+    /// and cover it exactly once.
+    Merge(MergeArgs),
+}
+
+#[derive(Args)]
+struct ShardArgs {
+    /// Run only part K of N (0 ≤ K < N) of the job list and write it as part-K-of-N.cbor
+    /// into --out, for `icp-eval merge`. Without it, a Slurm array task
+    /// (SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN of SLURM_ARRAY_TASK_COUNT) or a Kubernetes
+    /// indexed Job (JOB_COMPLETION_INDEX, with --shards) is sharded likewise.
+    #[arg(long)]
+    shard: Option<eval::shard::Shard>,
+    /// Number of shards of a Kubernetes indexed Job (its completions); checked against the
+    /// other sources when given with them.
+    #[arg(long)]
+    shards: Option<usize>,
+    /// Run everything, ignoring the Slurm and Kubernetes variables.
+    #[arg(long, conflicts_with_all = ["shard", "shards"])]
+    no_shard: bool,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// The shards' part files, or their --out directories (one part each).
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Output directory of the merged run.
+    #[arg(long)]
+    out: PathBuf,
+    #[command(flatten)]
+    common: Common,
 }
 
 #[derive(Args)]
@@ -206,6 +242,8 @@ struct RunArgs {
     out: PathBuf,
     #[command(flatten)]
     common: Common,
+    #[command(flatten)]
+    shard: ShardArgs,
 }
 
 /// The global search's rotation modes on the command line.
@@ -216,6 +254,18 @@ enum GlobalRotation {
 }
 
 impl RunArgs {
+    /// The options a sharded run's plan records.
+    fn run_options(&self) -> Result<RunOptions> {
+        Ok(RunOptions {
+            offset: self.reference_offset,
+            reference_checks: self.reference_checks,
+            init: self.init.clone(),
+            global: self.global()?,
+            global_check: self.global_check,
+            start_gate: self.start_gate,
+        })
+    }
+
     /// The global search's parameters from the options.
     fn global(&self) -> Result<GlobalParams> {
         let params = GlobalParams {
@@ -275,6 +325,8 @@ struct BasinArgs {
     out: PathBuf,
     #[command(flatten)]
     common: Common,
+    #[command(flatten)]
+    shard: ShardArgs,
 }
 
 #[derive(Args)]
@@ -398,6 +450,7 @@ fn run(cli: Cli) -> Result<ExitCode> {
         Command::Synth(args) => synth(args),
         Command::Scaling(args) => scaling(args),
         Command::List => list(),
+        Command::Merge(args) => merge_cmd(args),
     }
 }
 
@@ -557,14 +610,12 @@ fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>
 
 fn run_one(args: RunArgs) -> Result<ExitCode> {
     let ds = load_dataset(&args.data)?;
-    let setup = EvalSetup::from_specs(
-        &resolve_variants(&args.variants, &ds)?,
-        args.reference_offset,
-    )?
-    .with_reference_checks(args.reference_checks)
-    .with_init(args.init.clone())
-    .with_global(args.global()?, args.global_check)
-    .with_start_gate(args.start_gate);
+    let specs = resolve_variants(&args.variants, &ds)?;
+    if let Some(shard) = shard_of(&args.shard)? {
+        let work = Work::Run(args.run_options()?);
+        return run_shard_cmd(&ds, specs, work, shard, &args.out, &args.common);
+    }
+    let setup = args.run_options()?.setup(&specs)?;
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -574,37 +625,60 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let run = &args.run;
     let ds = load_dataset(&run.data)?;
     let variants = resolve_variants(&run.variants, &ds)?;
-    let setup = EvalSetup::from_specs(&variants, run.reference_offset)?
-        .with_reference_checks(run.reference_checks)
-        .with_init(run.init.clone())
-        .with_global(run.global()?, run.global_check)
-        .with_start_gate(run.start_gate);
-    let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,
         seed: args.bootstrap_seed,
     };
-    let rows = compare(&report, &options);
-    let md = compare_md(&report, &rows, &options);
-    let json = serde_json::json!({ "options": options, "comparisons": rows });
-    write_md_json(&mut dir, "compare", &md, &json)?;
-    println!("{md}");
-    if let Some(text) = &args.sweep {
-        let (param, values) = eval::sweep::parse_sweep(text)
-            .map_err(anyhow::Error::msg)
-            .context("--sweep")?;
+    let sweep = args
+        .sweep
+        .as_deref()
+        .map(|text| {
+            eval::sweep::parse_sweep(text)
+                .map(|(param, values)| SweepPlan { param, values })
+                .map_err(anyhow::Error::msg)
+                .context("--sweep")
+        })
+        .transpose()?;
+    if let Some(shard) = shard_of(&run.shard)? {
+        let work = Work::Compare {
+            run: run.run_options()?,
+            options,
+            sweep,
+        };
+        return run_shard_cmd(&ds, variants, work, shard, &run.out, &run.common);
+    }
+    let setup = run.run_options()?.setup(&variants)?;
+    let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
+    write_compare(&mut dir, &report, &options)?;
+    if let Some(SweepPlan { param, values }) = sweep {
         let bar = progress(run.common.quiet, "sweep");
         let result = in_pool(run.common.threads, || {
             eval::sweep::sweep(&ds, &setup, &variants, param, &values, &bar)
         })??;
-        let md = eval::sweep::sweep_md(&result);
-        write_md_json(&mut dir, "sweep", &md, &result)?;
-        if !run.common.no_plots {
-            eval::plots::write_sweep(&mut dir, &result)?;
-        }
-        println!("{md}");
+        write_sweep(&mut dir, &result, !run.common.no_plots)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Writes and prints `compare.md` and `compare.json` of `report`.
+fn write_compare(dir: &mut OutputDir, report: &RunReport, options: &CompareOptions) -> Result<()> {
+    let rows = compare(report, options);
+    let md = compare_md(report, &rows, options);
+    let json = serde_json::json!({ "options": options, "comparisons": rows });
+    write_md_json(dir, "compare", &md, &json)?;
+    println!("{md}");
+    Ok(())
+}
+
+/// Writes and prints `sweep.md` and `sweep.json` (and the sweep's figures when `plots`).
+fn write_sweep(dir: &mut OutputDir, result: &eval::sweep::SweepResult, plots: bool) -> Result<()> {
+    let md = eval::sweep::sweep_md(result);
+    write_md_json(dir, "sweep", &md, result)?;
+    if plots {
+        eval::plots::write_sweep(dir, result)?;
+    }
+    println!("{md}");
+    Ok(())
 }
 
 fn basin_cmd(args: BasinArgs) -> Result<ExitCode> {
@@ -622,6 +696,11 @@ fn basin_cmd(args: BasinArgs) -> Result<ExitCode> {
         ..BasinOptions::default()
     };
     options.validate()?;
+    if let Some(shard) = shard_of(&args.shard)? {
+        let specs = setup.variants.iter().map(|v| v.spec()).collect();
+        let work = Work::Basin(options);
+        return run_shard_cmd(&ds, specs, work, shard, &args.out, &args.common);
+    }
     let mut dir =
         OutputDir::open(&args.out, args.common.force).context("opening the output directory")?;
     let bar = progress(args.common.quiet, "basin");
@@ -629,13 +708,141 @@ fn basin_cmd(args: BasinArgs) -> Result<ExitCode> {
         eval::basin::run(&ds, &setup.variants, &options, &bar)
     })??;
     bar.finish_and_clear();
-    dir.write("basin.csv", &eval::basin::basin_csv(&report)?)?;
-    let md = eval::basin::basin_md(&report);
-    write_md_json(&mut dir, "basin", &md, &report)?;
-    if !args.common.no_plots {
-        eval::plots::write_basin(&mut dir, &report)?;
+    write_basin(&mut dir, &report, !args.common.no_plots)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Writes and prints `basin.csv`, `.md` and `.json` (and its figures when `plots`).
+fn write_basin(dir: &mut OutputDir, report: &eval::basin::BasinReport, plots: bool) -> Result<()> {
+    dir.write("basin.csv", &eval::basin::basin_csv(report)?)?;
+    let md = eval::basin::basin_md(report);
+    write_md_json(dir, "basin", &md, report)?;
+    if plots {
+        eval::plots::write_basin(dir, report)?;
     }
     println!("{md}");
+    Ok(())
+}
+
+/// The shard this process runs, from `--shard`, else from the Slurm or Kubernetes variables
+/// (unless `--no-shard`).
+fn shard_of(args: &ShardArgs) -> Result<Option<(Shard, ShardOrigin)>> {
+    let env: BTreeMap<String, String> = if args.no_shard {
+        BTreeMap::new()
+    } else {
+        [
+            eval::shard::SLURM_ARRAY_TASK_ID,
+            eval::shard::SLURM_ARRAY_TASK_MIN,
+            eval::shard::SLURM_ARRAY_TASK_COUNT,
+            eval::shard::JOB_COMPLETION_INDEX,
+        ]
+        .into_iter()
+        .filter_map(|name| {
+            std::env::var_os(name).map(|v| (name.to_owned(), v.to_string_lossy().into_owned()))
+        })
+        .collect()
+    };
+    Ok(eval::shard::resolve(args.shard, args.shards, &env)?)
+}
+
+/// Runs one shard of the plan of `work` and writes its part file into `out`.
+fn run_shard_cmd(
+    ds: &Dataset,
+    specs: Vec<VariantSpec>,
+    work: Work,
+    (shard, origin): (Shard, ShardOrigin),
+    out: &Path,
+    common: &Common,
+) -> Result<ExitCode> {
+    let plan = Plan::new(ds, specs, work, shard.count)?;
+    let slices = eval::shard::slices(&plan.runs, shard);
+    let mine: usize = slices.iter().map(|s| s.units.len()).sum();
+    let total: usize = plan.runs.iter().map(|r| r.units).sum();
+    // Said on every sharded run: a run inside a Slurm array or an indexed Job shards itself.
+    eprintln!(
+        "icp-eval: shard {shard} (from {origin}): {mine} of the plan's {total} units; writes {} only: merge the parts with `icp-eval merge` (--no-shard runs everything)",
+        out.join(shard.file_name()).display()
+    );
+    let mut dir = OutputDir::open(out, common.force).context("opening the output directory")?;
+    let bar = progress(common.quiet, &format!("shard {shard}"));
+    let command_line: Vec<String> = std::env::args().collect();
+    let part = in_pool(common.threads, || {
+        eval::shard::run_shard(ds, &plan, shard, command_line, &bar)
+    })??;
+    dir.write(&shard.file_name(), &part.to_bytes()?)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `icp-eval merge`: the parts' results, rendered as a single run renders its own.
+fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
+    let merged = eval::merge::merge(&args.parts)?;
+    let plan = &merged.plan;
+    // The dataset is re-loaded from the shard's own options, and checked against the plan.
+    let data = match Cli::try_parse_from(&merged.command_line)
+        .map(|cli| cli.command)
+        .context("re-reading the command line of shard 0")?
+    {
+        Command::Run(a) => a.data,
+        Command::Compare(a) => a.run.data,
+        Command::Basin(a) => a.data,
+        _ => bail!("shard 0 was not a run, compare or basin"),
+    };
+    let ds = load_dataset(&data).context("re-loading the dataset of the sharded run")?;
+    let identity = eval::shard::DatasetIdentity::of(&ds);
+    if identity != plan.dataset {
+        bail!(
+            "the dataset re-loaded for the merge ({}, {} scans, content {}) is not the one the              shards ran ({}, {} scans, content {}): run the merge where the shards' dataset              paths lead to the same files",
+            identity.name,
+            identity.scans,
+            identity.content_sha256,
+            plan.dataset.name,
+            plan.dataset.scans,
+            plan.dataset.content_sha256
+        );
+    }
+    let setups = plan.setups()?;
+    let mut dir =
+        OutputDir::open(&args.out, args.common.force).context("opening the output directory")?;
+    let plots = !args.common.no_plots;
+    let report_of = |i: usize| -> Result<RunReport> {
+        let MergedRun::Runs(runs) = &merged.runs[i] else {
+            bail!("run {i} of the plan holds basin rows");
+        };
+        let (pairs, skipped) = eval::checked_pairs(&ds, &setups[i])?;
+        Ok(eval::report::build(&ds, &pairs, skipped, &setups[i], runs))
+    };
+    match &plan.work {
+        Work::Run(_) => {
+            let report = report_of(0)?;
+            write_outputs(&mut dir, &ds, &report, plots).context("writing the reports")?;
+            println!("{}", eval::output::table_md(&report));
+        }
+        Work::Compare { options, sweep, .. } => {
+            let report = report_of(0)?;
+            write_outputs(&mut dir, &ds, &report, plots).context("writing the reports")?;
+            write_compare(&mut dir, &report, options)?;
+            if let Some(s) = sweep {
+                let mut points = Vec::new();
+                for (i, &value) in s.values.iter().enumerate() {
+                    points.extend(eval::sweep::points_of(value, &report_of(i + 1)?));
+                }
+                let result = eval::sweep::SweepResult {
+                    param: s.param.clone(),
+                    points,
+                };
+                write_sweep(&mut dir, &result, plots)?;
+            }
+        }
+        Work::Basin(options) => {
+            let MergedRun::Basin(rows) = &merged.runs[0] else {
+                bail!("the basin's run holds registrations");
+            };
+            let names: Vec<&str> = setups[0].variants.iter().map(|v| v.name()).collect();
+            let chosen = eval::basin::chosen_pairs(&ds, options).len();
+            let report = eval::basin::report(&ds, &names, options, chosen, rows.clone());
+            write_basin(&mut dir, &report, plots)?;
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 

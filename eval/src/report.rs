@@ -480,6 +480,18 @@ impl EvalSetup {
             .collect()
     }
 
+    /// Per variant, the registrar a close start runs instead of it (built from
+    /// [`Self::close_start_specs`]), for the runner's plan.
+    pub fn close_start_variants(&self) -> Result<Vec<Option<Box<dyn Registrar>>>, ConfigError> {
+        self.close_start_specs()?
+            .into_iter()
+            .map(|s| {
+                s.map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
+                    .transpose()
+            })
+            .collect()
+    }
+
     /// The same setup with the global search's parameters `global` and checks `check`.
     pub fn with_global(mut self, global: GlobalParams, check: GlobalChecks) -> Self {
         self.global = global;

@@ -21,8 +21,9 @@ use rayon::prelude::*;
 use crate::init::{self, InitChain, InitMode, Previous};
 use crate::status::{GlobalCheck, PairStatus};
 
-/// One registration's outcome and its wall time.
-#[derive(Clone, Debug)]
+/// One registration's outcome and its wall time (serialized whole into the part files of a
+/// sharded run, see [`crate::shard`]).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct PairRun {
     /// The registration, or why it failed.
     pub result: Result<Registration, IcpError>,
@@ -41,7 +42,7 @@ pub struct PairRun {
 }
 
 /// The global search of one pair (made once, shared by every variant).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct PairSearch {
     /// Its best pose and score, or why it could not run (the pair's registrations then start
     /// at the identity where the chain says global, and are not checked).
@@ -51,7 +52,7 @@ pub struct PairSearch {
 }
 
 /// Every registration of a run.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Runs {
     /// `per_variant[variant][pair]`.
     pub per_variant: Vec<Vec<PairRun>>,
@@ -162,7 +163,21 @@ pub fn run_all(
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
 ) -> Runs {
-    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS)
+    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS, 0)
+}
+
+/// [`run_all`] over `pairs`, the run's pairs from position `first` on (a shard of a run,
+/// see [`crate::shard`]): each pair runs its variants in the order it has in the whole run,
+/// so a shard repeats the whole run's registrations exactly.
+pub fn run_from(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    first: usize,
+    registrars: &[Box<dyn Registrar>],
+    plan: &RunPlan<'_>,
+    progress: &ProgressBar,
+) -> Runs {
+    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS, first)
 }
 
 /// A pair's global search with the reference's likelihood grid, which scores the results.
@@ -272,7 +287,8 @@ impl BlockJob<'_> {
     }
 }
 
-/// [`run_all`] with blocks of `block_pairs` pairs.
+/// [`run_all`] with blocks of `block_pairs` pairs, the first of `pairs` at position `first`
+/// of the run.
 fn run_blocks(
     ds: &Dataset,
     pairs: &[ScanPair],
@@ -280,6 +296,7 @@ fn run_blocks(
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
     block_pairs: usize,
+    first: usize,
 ) -> Runs {
     let searches = plan.searches();
     let params = distinct_surface_params(
@@ -361,7 +378,7 @@ fn run_blocks(
             .map_init(
                 || (Workspace::default(), GlobalWorkspace::default()),
                 |(workspace, gws), (i, &pair)| {
-                    let position = b * block_pairs + i;
+                    let position = first + b * block_pairs + i;
                     let (searched, search) = if searches {
                         let (s, info) = job.search(pair, gws);
                         (s, Some(info))
@@ -477,10 +494,10 @@ mod tests {
             check: true,
             close: &[],
         };
-        let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS);
+        let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS, 0);
         assert_eq!(whole.per_variant[0].len(), pairs.len());
         for block_pairs in [1, 2, 5] {
-            let blocks = run_blocks(&ds, &pairs, &registrars, &plan, &progress, block_pairs);
+            let blocks = run_blocks(&ds, &pairs, &registrars, &plan, &progress, block_pairs, 0);
             assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
             // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
             // holds only the scans it shares with the block before (scan 10).

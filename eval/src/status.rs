@@ -14,7 +14,7 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 /// The verdict on one registration.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum PairStatus {
     /// Registered, and nothing says the number is wrong.
     Ok,
@@ -129,7 +129,7 @@ impl fmt::Display for PairStatus {
 /// a registration's result: the best score it found and the result's own score on the same
 /// likelihood grid of the reference scan (the mean likelihood of the moved source returns,
 /// in [0, 1]).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GlobalCheck {
     /// The search's best pose.
     pub best_t_ref_src: Isometry2<f64>,

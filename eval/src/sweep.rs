@@ -7,7 +7,7 @@ use icp_core::ConfigError;
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 
-use crate::report::EvalSetup;
+use crate::report::{EvalSetup, RunReport};
 use crate::{evaluate, EvalError};
 
 /// The parameter a sweep varies: any `section.parameter` of a variant's configuration (e.g.
@@ -125,30 +125,54 @@ pub fn sweep(
     progress: &ProgressBar,
 ) -> Result<SweepResult, EvalError> {
     let mut points = Vec::new();
-    for &value in values {
-        let specs = variants
-            .iter()
-            .map(|v| param.apply(v, value))
-            .collect::<Result<Vec<_>, _>>()?;
-        let setup = EvalSetup::from_specs(&specs, base.offset)?
-            .with_reference_checks(base.reference_checks)
-            .with_init(base.init.clone())
-            .with_global(base.global, base.global_check)
-            .with_start_gate(base.start_gate);
+    for (&value, setup) in values.iter().zip(setups(base, variants, &param, values)?) {
         let report = evaluate(ds, &setup, progress)?;
-        for v in &report.variants {
+        points.extend(points_of(value, &report));
+    }
+    Ok(SweepResult { param, points })
+}
+
+/// The setup of each value of `param`: `variants` with the value, the reference alignment,
+/// checks and starts of `base`.
+pub fn setups(
+    base: &EvalSetup,
+    variants: &[VariantSpec],
+    param: &SweepParam,
+    values: &[f64],
+) -> Result<Vec<EvalSetup>, EvalError> {
+    values
+        .iter()
+        .map(|&value| {
+            let specs = variants
+                .iter()
+                .map(|v| param.apply(v, value))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok(EvalSetup::from_specs(&specs, base.offset)?
+                .with_reference_checks(base.reference_checks)
+                .with_init(base.init.clone())
+                .with_global(base.global, base.global_check)
+                .with_start_gate(base.start_gate))
+        })
+        .collect()
+}
+
+/// The sweep's points at `value` from the run `report` made there.
+pub fn points_of(value: f64, report: &RunReport) -> Vec<SweepPoint> {
+    report
+        .variants
+        .iter()
+        .map(|v| {
             let e = &v.plausible_reference;
-            points.push(SweepPoint {
+            SweepPoint {
                 value,
                 variant: v.name.clone(),
                 sog_std_mps: e.sog_err_mps.map(|s| s.std),
                 sog_median_abs_mps: e.sog_err_mps.map(|s| s.median_abs),
                 dcog_std_deg: e.dcog_err_deg.map(|s| s.std),
                 dcog_median_abs_deg: e.dcog_err_deg.map(|s| s.median_abs),
-            });
-        }
-    }
-    Ok(SweepResult { param, points })
+            }
+        })
+        .collect()
 }
 
 /// The sweep as a Markdown table.

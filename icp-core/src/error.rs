@@ -2,8 +2,10 @@
 
 use std::fmt;
 
+use serde::{Deserialize, Serialize};
+
 /// Which scan of a pair an error is about.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum ScanRole {
     /// Scan k, the scan being moved.
     Source,
@@ -21,7 +23,7 @@ impl fmt::Display for ScanRole {
 }
 
 /// How a point set is degenerate.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Degeneracy {
     /// All points (nearly) coincide: neither rotation nor translation is observable.
     Coincident,
@@ -39,25 +41,31 @@ impl fmt::Display for Degeneracy {
 }
 
 /// Errors of scan construction and registration.
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[derive(Debug, thiserror::Error, Clone, PartialEq, Serialize, Deserialize)]
 pub enum IcpError {
     /// Ranges and bearings (or two parallel inputs) differ in length.
     #[error("mismatched lengths: {what} has {got} values, expected {expected}")]
     LengthMismatch {
-        what: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        what: crate::static_str::StaticStr,
         expected: usize,
         got: usize,
     },
     /// A value that must be finite is NaN or infinite.
     #[error("non-finite {what} at index {index}: {value}")]
     NonFinite {
-        what: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        what: crate::static_str::StaticStr,
         index: usize,
         value: f64,
     },
     /// A vector that must have a direction (a surface normal) is zero.
     #[error("zero-length {what} at index {index}")]
-    ZeroLength { what: &'static str, index: usize },
+    ZeroLength {
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        what: crate::static_str::StaticStr,
+        index: usize,
+    },
     /// A range below zero.
     #[error("negative range at index {index}: {value} m")]
     NegativeRange { index: usize, value: f64 },
@@ -77,9 +85,11 @@ pub enum IcpError {
     /// A parameter outside its domain.
     #[error("invalid parameter {name} = {value}: {reason}")]
     InvalidParameter {
-        name: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        name: crate::static_str::StaticStr,
         value: f64,
-        reason: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        reason: crate::static_str::StaticStr,
     },
     /// A pair weight that is NaN, infinite or negative.
     #[error("pair {pair} has an invalid weight {value}")]
@@ -95,7 +105,8 @@ pub enum IcpError {
     #[error("the global search needs {count} {what}, more than the limit of {max}")]
     GlobalSearchTooLarge {
         /// What there are too many of.
-        what: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        what: crate::static_str::StaticStr,
         /// How many there would be.
         count: f64,
         /// The limit.
@@ -111,19 +122,21 @@ pub enum IcpError {
         /// Which scan.
         role: ScanRole,
         /// What does not match.
-        why: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        why: crate::static_str::StaticStr,
     },
 }
 
 /// A variant's configuration that cannot be built: what is wrong, naming the stage and the
 /// parameter (generated from the registered kinds, see [`crate::registry`]).
-#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+#[derive(Debug, thiserror::Error, Clone, PartialEq, Serialize, Deserialize)]
 pub enum ConfigError {
     /// No kind of this name is registered in the family.
     #[error("unknown {family} kind {kind:?}: expected one of {known}")]
     UnknownKind {
         /// The stage family, e.g. `weighting`.
-        family: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        family: crate::static_str::StaticStr,
         /// The name given.
         kind: String,
         /// The registered names.
@@ -133,7 +146,8 @@ pub enum ConfigError {
     #[error("{family} {kind:?}: {why}")]
     BadParameters {
         /// The stage family.
-        family: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        family: crate::static_str::StaticStr,
         /// The kind.
         kind: String,
         /// What is wrong, naming the parameter.
@@ -143,7 +157,8 @@ pub enum ConfigError {
     #[error("{section}.{}", .source)]
     Section {
         /// The section, e.g. `termination`.
-        section: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        section: crate::static_str::StaticStr,
         /// The parameter and what is wrong with it.
         source: crate::registry::ParamError,
     },
@@ -156,6 +171,7 @@ pub enum ConfigError {
         /// The name given.
         name: String,
         /// What is wrong with it.
-        reason: &'static str,
+        #[serde(deserialize_with = "crate::static_str::deserialize")]
+        reason: crate::static_str::StaticStr,
     },
 }

@@ -62,6 +62,7 @@ pub mod robust;
 pub mod scan;
 pub mod select;
 pub mod sensor;
+pub mod static_str;
 pub mod surface;
 pub mod termination;
 pub mod variants;

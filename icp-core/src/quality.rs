@@ -29,7 +29,7 @@ pub const MIN_OVERLAP: f64 = 0.1;
 /// distance from it, so all three directions are in metres. A corridor or a single wall
 /// leaves one direction unconstrained (a near-zero eigenvalue); point-to-point ICP still
 /// returns a number there, which is why it is flagged rather than trusted.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Conditioning {
     /// Eigenvalues of H, ascending (dimensionless: mean squared normal components).
     pub eigenvalues: [f64; 3],

@@ -12,7 +12,7 @@ use crate::variants::VariantSpec;
 use crate::{IcpError, Scan};
 
 /// The outcome of one registration of a source scan onto a reference scan.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Registration {
     /// Maps points of the source scan (k) into the reference scan's frame (k+1).
     pub t_ref_src: Isometry2<f64>,

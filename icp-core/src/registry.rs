@@ -130,15 +130,17 @@ pub struct BuildContext {
 }
 
 /// A parameter outside its domain: which one, its value and why.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error, serde::Serialize, serde::Deserialize)]
 #[error("{parameter} = {value}: {reason}")]
 pub struct ParamError {
     /// The parameter's name, as written in a configuration file.
-    pub parameter: &'static str,
+    #[serde(deserialize_with = "crate::static_str::deserialize")]
+    pub parameter: crate::static_str::StaticStr,
     /// Its value, as given.
     pub value: String,
     /// What it must be.
-    pub reason: &'static str,
+    #[serde(deserialize_with = "crate::static_str::deserialize")]
+    pub reason: crate::static_str::StaticStr,
 }
 
 impl ParamError {

@@ -278,7 +278,7 @@ impl GlobalParams {
 }
 
 /// The global search's best pose.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GlobalGuess {
     /// Maps source points into the reference frame; the centre when no pose scores above 0.
     pub t_ref_src: Isometry2<f64>,
