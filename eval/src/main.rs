@@ -804,11 +804,21 @@ fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
     let mut dir =
         OutputDir::open(&args.out, args.common.force).context("opening the output directory")?;
     let plots = !args.common.no_plots;
+    if merged.runs.len() != setups.len() {
+        bail!(
+            "the parts hold {} runs, their plan {}",
+            merged.runs.len(),
+            setups.len()
+        );
+    }
     let report_of = |i: usize| -> Result<RunReport> {
         let MergedRun::Runs(runs) = &merged.runs[i] else {
             bail!("run {i} of the plan holds basin rows");
         };
         let (pairs, skipped) = eval::checked_pairs(&ds, &setups[i])?;
+        eval::merge::check_shape(runs, setups[i].variants.len(), pairs.len())
+            .map_err(anyhow::Error::msg)
+            .with_context(|| format!("run {i} of the merged plan"))?;
         Ok(eval::report::build(&ds, &pairs, skipped, &setups[i], runs))
     };
     match &plan.work {

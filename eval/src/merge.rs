@@ -307,3 +307,27 @@ fn append(all: &mut Runs, more: Runs, cut: Cut) {
     // timing, like every field that differs from a single run.
     all.prepare_us.extend(more.prepare_us);
 }
+
+/// `Err` saying what is wrong unless `runs` holds `variants` variants of `pairs` pairs each
+/// and one global search per pair or none: what [`crate::report::build`] takes.
+pub fn check_shape(runs: &Runs, variants: usize, pairs: usize) -> Result<(), String> {
+    if runs.per_variant.len() != variants {
+        return Err(format!(
+            "{} variants' results for {variants} variants",
+            runs.per_variant.len()
+        ));
+    }
+    if let Some(v) = runs.per_variant.iter().position(|r| r.len() != pairs) {
+        return Err(format!(
+            "variant {v} has {} results for {pairs} pairs",
+            runs.per_variant[v].len()
+        ));
+    }
+    if !(runs.searches.is_empty() || runs.searches.len() == pairs) {
+        return Err(format!(
+            "{} global searches for {pairs} pairs",
+            runs.searches.len()
+        ));
+    }
+    Ok(())
+}

@@ -444,8 +444,8 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
     }
 
     // Slurm: the index counts from SLURM_ARRAY_TASK_MIN.
-    let slurm = slurm("7", "5", "3");
-    let got = resolve(None, None, &slurm).unwrap().unwrap();
+    let task = slurm("7", "5", "3");
+    let got = resolve(None, None, &task).unwrap().unwrap();
     assert_eq!(got.0, shard(2, 3));
     assert_eq!(
         got.1,
@@ -456,18 +456,18 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
         }
     );
     assert_eq!(
-        resolve(Some(shard(2, 3)), Some(3), &slurm)
+        resolve(Some(shard(2, 3)), Some(3), &task)
             .unwrap()
             .unwrap()
             .0,
         shard(2, 3)
     );
     assert!(matches!(
-        resolve(Some(shard(1, 3)), None, &slurm),
+        resolve(Some(shard(1, 3)), None, &task),
         Err(ShardError::Disagree { .. })
     ));
     assert!(matches!(
-        resolve(None, Some(4), &slurm),
+        resolve(None, Some(4), &task),
         Err(ShardError::Disagree { .. })
     ));
     // A stepped or sparse array (--array=5-9:2 has ids 5, 7, 9 and count 3): id 9 is beyond.
