@@ -12,6 +12,8 @@ pub mod dataset;
 pub mod error;
 pub mod marina;
 pub mod matv5;
+pub mod rosbag;
+pub mod source;
 pub mod synthetic;
 
 pub use dataset::{
@@ -19,3 +21,4 @@ pub use dataset::{
     ReferencePose, ScanPair, SkippedPair,
 };
 pub use error::DatasetError;
+pub use source::{open, DatasetSource, SourceError};
