@@ -221,7 +221,8 @@ impl fmt::Display for LoadWarning {
                 above_range_max,
             } => write!(
                 f,
-                "{} of {readings} readings are no-returns: {non_finite} NaN or ±∞,                  {below_range_min} below range_min, {above_range_max} above range_max",
+                "{} of {readings} readings are no-returns: {non_finite} NaN or ±∞, \
+                 {below_range_min} below range_min, {above_range_max} above range_max",
                 non_finite + below_range_min + above_range_max
             ),
             Self::ScansReordered { scans } => write!(
@@ -230,11 +231,13 @@ impl fmt::Display for LoadWarning {
             ),
             Self::ScansOutsideReference { before, after } => write!(
                 f,
-                "{before} scan(s) before and {after} after the reference's time span have no                  reference and were left out (reference=none keeps them)"
+                "{before} scan(s) before and {after} after the reference's time span have no \
+                 reference and were left out (reference=none keeps them)"
             ),
             Self::UnusableReferenceMessages { messages } => write!(
                 f,
-                "{messages} reference message(s) without a usable pose (non-finite, zero                  quaternion, or no GNSS fix) were skipped"
+                "{messages} reference message(s) without a usable pose (non-finite, zero \
+                 quaternion, or no GNSS fix) were skipped"
             ),
         }
     }

@@ -42,6 +42,13 @@ pub enum CdrError {
         /// Bytes in the payload.
         len: usize,
     },
+    /// Bytes left after the last field beyond what alignment padding explains: the message
+    /// is of another type.
+    #[error("{left} bytes left after the last field: not this message type")]
+    TrailingBytes {
+        /// Bytes left.
+        left: usize,
+    },
     /// A string without its terminating NUL, or not UTF-8.
     #[error("field {field}: not a NUL-terminated UTF-8 string")]
     BadString {
@@ -174,6 +181,15 @@ impl<'a> CdrReader<'a> {
         out.reserve(n);
         for _ in 0..n {
             out.push(f64::from(self.f32(field)?));
+        }
+        Ok(())
+    }
+
+    /// Checks that the message ends here, but for alignment padding (under 8 bytes).
+    pub fn finish(&self) -> Result<(), CdrError> {
+        let left = self.payload.len().saturating_sub(self.pos);
+        if left >= 8 {
+            return Err(CdrError::TrailingBytes { left });
         }
         Ok(())
     }

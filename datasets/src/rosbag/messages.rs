@@ -67,6 +67,7 @@ pub fn laser_scan(message: &[u8]) -> Result<LaserScan, CdrError> {
     // `intensities` follows; not needed, but it must be there for the message to be whole.
     let mut intensities = Vec::new();
     r.f32_sequence("intensities", &mut intensities)?;
+    r.finish()?;
     Ok(LaserScan {
         stamp_s,
         angle_min_rad,
@@ -134,6 +135,11 @@ pub fn stamped_pose(ty: &str, message: &[u8]) -> Result<Option<StampedPose>, Cdr
     if ty != POSE_STAMPED {
         r.skip_f64_array("pose.covariance", 36)?;
     }
+    if ty == ODOMETRY {
+        // twist: TwistWithCovariance (linear, angular, covariance[36]).
+        r.skip_f64_array("twist", 6 + 36)?;
+    }
+    r.finish()?;
     Ok(p)
 }
 
@@ -163,6 +169,7 @@ pub fn nav_sat_fix(message: &[u8]) -> Result<Fix, CdrError> {
     let altitude_m = r.f64("altitude")?;
     r.skip_f64_array("position_covariance", 9)?;
     let _covariance_type = r.u8("position_covariance_type")?;
+    r.finish()?;
     Ok(Fix {
         stamp_s,
         status,

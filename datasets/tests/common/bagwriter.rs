@@ -71,7 +71,10 @@ impl Cdr {
     /// `geometry_msgs/Pose` in the plane, orientation `yaw` about `+z`.
     pub fn pose(&mut self, x: f64, y: f64, yaw: f64) -> &mut Self {
         self.f64(x).f64(y).f64(0.0);
-        self.f64(0.0).f64(0.0).f64((yaw / 2.0).sin()).f64((yaw / 2.0).cos())
+        self.f64(0.0)
+            .f64(0.0)
+            .f64((yaw / 2.0).sin())
+            .f64((yaw / 2.0).cos())
     }
     pub fn bytes(&self) -> Vec<u8> {
         self.buf.clone()
@@ -174,8 +177,11 @@ pub fn write_mcap(path: &Path, topics: &[TopicDef<'_>], messages: &[Msg]) {
     let channels: Vec<u16> = topics
         .iter()
         .map(|(name, ty)| {
-            let schema = w.add_schema(ty, "ros2msg", b"# definition not needed").unwrap();
-            w.add_channel(schema, name, "cdr", &BTreeMap::new()).unwrap()
+            let schema = w
+                .add_schema(ty, "ros2msg", b"# definition not needed")
+                .unwrap();
+            w.add_channel(schema, name, "cdr", &BTreeMap::new())
+                .unwrap()
         })
         .collect();
     for (seq, (topic, t_ns, data)) in messages.iter().enumerate() {
@@ -239,7 +245,13 @@ pub enum Storage {
 pub const STORAGES: [Storage; 2] = [Storage::Mcap, Storage::Sqlite];
 
 /// Writes a bag file `stem.mcap` / `stem.db3` in `dir`; returns its path.
-pub fn write(dir: &Path, stem: &str, storage: Storage, topics: &[TopicDef<'_>], messages: &[Msg]) -> std::path::PathBuf {
+pub fn write(
+    dir: &Path,
+    stem: &str,
+    storage: Storage,
+    topics: &[TopicDef<'_>],
+    messages: &[Msg],
+) -> std::path::PathBuf {
     std::fs::create_dir_all(dir).unwrap();
     match storage {
         Storage::Mcap => {
@@ -257,7 +269,9 @@ pub fn write(dir: &Path, stem: &str, storage: Storage, topics: &[TopicDef<'_>], 
 
 /// A fresh scratch directory under the target directory.
 pub fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("rosbag").join(name);
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("rosbag")
+        .join(name);
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
