@@ -353,8 +353,11 @@ impl DatasetSource {
             return Ok(());
         };
         let value = value.to_string();
+        let same = |a: &str, b: &str| {
+            a == b || matches!((a.parse::<f64>(), b.parse::<f64>()), (Ok(x), Ok(y)) if x == y)
+        };
         match self.options.iter().find(|(k, _)| *k == option) {
-            Some((_, first)) if *first != value => Err(SourceError::Repeated {
+            Some((_, first)) if !same(first, &value) => Err(SourceError::Repeated {
                 kind: self.kind.name,
                 option,
                 first: first.clone(),
@@ -587,6 +590,7 @@ mod tests {
         let mut s: DatasetSource = "carmen:a.log?fov_deg=270".parse().unwrap();
         s.set_from_flag("max_range_m", 30.0).unwrap();
         s.set_from_flag("fov_deg", 270.0).unwrap();
+        s.set_from_flag("fov_deg", "270.0").unwrap();
         s.set_from_flag("scans", 5).unwrap(); // not a carmen option: ignored
         assert_eq!(s.raw("max_range_m"), Some("30"));
         assert!(s.raw("scans").is_none());

@@ -215,6 +215,16 @@ pub fn load(path: &Path, options: &RosbagOptions) -> Result<Dataset, DatasetErro
     Ok(ds)
 }
 
+/// The dataset of an MCAP bag held in memory; `name` names it in errors (no file provenance).
+#[cfg(feature = "rosbag-mcap")]
+pub fn load_mcap_bytes(
+    name: &Path,
+    bytes: &[u8],
+    options: &RosbagOptions,
+) -> Result<Dataset, DatasetError> {
+    from_bag(name, &storage::mcap_from_bytes(name, bytes)?, options)
+}
+
 /// The dataset of a bag already read; `path` names it in errors.
 pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Dataset, DatasetError> {
     let scan_topic = pick_topic(

@@ -21,7 +21,7 @@ impl Default for Cdr {
 
 impl Cdr {
     fn align(&mut self, n: usize) {
-        while (self.buf.len() - 4) % n != 0 {
+        while !(self.buf.len() - 4).is_multiple_of(n) {
             self.buf.push(0);
         }
     }
@@ -91,12 +91,6 @@ pub fn stamp(t_s: f64) -> (i32, u32) {
         nanosec -= 1e9;
     }
     (sec, nanosec as u32)
-}
-
-/// The time ROS gives back for `stamp(t_s)`, as the reader computes it.
-pub fn stamp_s(t_s: f64) -> f64 {
-    let (sec, nanosec) = stamp(t_s);
-    f64::from(sec) + f64::from(nanosec) * 1e-9
 }
 
 /// A `LaserScan`.
