@@ -378,6 +378,19 @@ fn missing_and_ambiguous_topics_are_typed_errors() {
         let ds = open(&path, "?scan=/front&reference=none").unwrap();
         assert_eq!(ds.reference, None);
 
+        // A topic without messages is still a topic (the MCAP summary, the sqlite topics table).
+        let path = write(
+            &dir,
+            "empty_topic",
+            storage,
+            &[("/front", SCAN), ("/rear", SCAN)],
+            &[(0, 1, small_scan(t))],
+        );
+        let e = open(&path, "").unwrap_err().to_string();
+        assert!(e.contains("2 LaserScan topics"), "{storage:?}: {e}");
+        let e = open(&path, "?scan=/rear").unwrap_err().to_string();
+        assert!(e.contains("no scan to use on /rear"), "{storage:?}: {e}");
+
         let path = write(
             &dir,
             "no_scan",

@@ -180,6 +180,22 @@ pub fn mcap_from_bytes(file: &Path, bytes: &[u8]) -> Result<Bag, DatasetError> {
 fn mcap_into(file: &Path, bytes: &[u8], bag: &mut Bag) -> Result<(), DatasetError> {
     let stream = mcap::MessageStream::new(bytes)
         .map_err(|e| storage_error(file, format!("unreadable MCAP: {e}")))?;
+    // Channels listed in the summary, so that a topic without messages is still named (the
+    // stream below yields messages only). A damaged summary is left to the stream to report.
+    if let Ok(Some(summary)) = mcap::Summary::read(bytes) {
+        let mut channels: Vec<_> = summary.channels.values().collect();
+        channels.sort_by_key(|c| c.id);
+        for c in channels {
+            bag.topic_index(Topic {
+                name: c.topic.clone(),
+                ty: c
+                    .schema
+                    .as_ref()
+                    .map_or_else(String::new, |s| s.name.clone()),
+                encoding: c.message_encoding.clone(),
+            });
+        }
+    }
     for message in stream {
         let message = message.map_err(|e| storage_error(file, format!("unreadable MCAP: {e}")))?;
         let ty = message
