@@ -27,30 +27,37 @@ fn t_ns(t_s: f64) -> u64 {
     (t_s * 1e9).round() as u64
 }
 
-/// A synthetic dataset's scans as `LaserScan` messages: the first return's bearing is
-/// `angle_min`, the scenario's beam step the increment; beams without a return are NaN.
-fn synthetic_laser(ds: &Dataset, beams: usize, max_range_m: f64) -> Vec<Vec<u8>> {
-    let step = TAU / beams as f64;
-    ds.scans
-        .iter()
-        .map(|s| {
-            let r = s.returns();
-            let b0 = r[0].bearing_rad;
-            let index = |b: f64| ((b - b0) / step).round() as usize;
-            let mut ranges = vec![f32::NAN; index(r[r.len() - 1].bearing_rad) + 1];
-            for ret in r {
-                ranges[index(ret.bearing_rad)] = ret.range_m as f32;
-            }
-            laser_scan(&LaserScanMsg {
-                t_s: s.timestamp_s().unwrap(),
-                angle_min: b0 as f32,
-                angle_increment: step as f32,
-                range_min: 0.0,
-                range_max: (max_range_m + 5.0) as f32,
-                ranges: &ranges,
-            })
-        })
-        .collect()
+/// A synthetic scenario's dataset and its bag messages: each scan as a `LaserScan` on topic 0
+/// (the first return's bearing is `angle_min`, the scenario's beam step the increment, beams
+/// without a return NaN) and the reference pose as an `Odometry` on topic 1, at the scan stamp.
+fn harbour_bag(scenario: &Scenario) -> (Dataset, Vec<Msg>) {
+    let ds = generate(scenario).unwrap();
+    let step = TAU / scenario.scanner.beams_per_rev() as f64;
+    let range_max = (scenario.scanner.max_range_m + 5.0) as f32;
+    let reference = ds.reference.as_ref().unwrap();
+    let mut messages = Vec::new();
+    for (s, p) in ds.scans.iter().zip(reference) {
+        let r = s.returns();
+        let b0 = r[0].bearing_rad;
+        let index = |b: f64| ((b - b0) / step).round() as usize;
+        let mut ranges = vec![f32::NAN; index(r[r.len() - 1].bearing_rad) + 1];
+        for ret in r {
+            ranges[index(ret.bearing_rad)] = ret.range_m as f32;
+        }
+        let t = s.timestamp_s().unwrap();
+        let yaw = p.scan_yaw_rad.unwrap();
+        messages.push((1, t_ns(t), odometry(t, p.x_m, p.y_m, yaw)));
+        let scan = LaserScanMsg {
+            t_s: t,
+            angle_min: b0 as f32,
+            angle_increment: step as f32,
+            range_min: 0.0,
+            range_max,
+            ranges: &ranges,
+        };
+        messages.push((0, t_ns(t), laser_scan(&scan)));
+    }
+    (ds, messages)
 }
 
 /// The synthetic harbour written into a bag (LaserScan + Odometry at the scan stamps) and
@@ -62,22 +69,9 @@ fn synthetic_harbour_round_trips_through_both_storages() {
         n_scans: 60,
         ..Scenario::paper()
     };
-    let ds = generate(&scenario).unwrap();
-    let beams = scenario.scanner.beams_per_rev();
-    let laser = synthetic_laser(&ds, beams, scenario.scanner.max_range_m);
-    let step32 = (TAU / beams as f64) as f32;
+    let (ds, messages) = harbour_bag(&scenario);
+    let step32 = (TAU / scenario.scanner.beams_per_rev() as f64) as f32;
     let reference = ds.reference.as_ref().unwrap();
-    let mut messages = Vec::new();
-    for (k, (scan, data)) in ds.scans.iter().zip(&laser).enumerate() {
-        let t = scan.timestamp_s().unwrap();
-        let p = reference[k];
-        messages.push((
-            1,
-            t_ns(t),
-            odometry(t, p.x_m, p.y_m, p.scan_yaw_rad.unwrap()),
-        ));
-        messages.push((0, t_ns(t), data.clone()));
-    }
     let dir = scratch("roundtrip");
     for storage in STORAGES {
         let path = write(
@@ -596,24 +590,7 @@ fn a_bag_directory_is_read_through_its_metadata_yaml() {
 #[test]
 fn loading_a_paper_sized_bag_is_timed() {
     let scenario = Scenario::paper();
-    let ds = generate(&scenario).unwrap();
-    let laser = synthetic_laser(
-        &ds,
-        scenario.scanner.beams_per_rev(),
-        scenario.scanner.max_range_m,
-    );
-    let reference = ds.reference.as_ref().unwrap();
-    let mut messages = Vec::new();
-    for (k, (scan, data)) in ds.scans.iter().zip(laser).enumerate() {
-        let t = scan.timestamp_s().unwrap();
-        let p = reference[k];
-        messages.push((
-            1,
-            t_ns(t),
-            odometry(t, p.x_m, p.y_m, p.scan_yaw_rad.unwrap()),
-        ));
-        messages.push((0, t_ns(t), data));
-    }
+    let (_, messages) = harbour_bag(&scenario);
     let dir = scratch("timing");
     for storage in STORAGES {
         let path = write(

@@ -320,18 +320,13 @@ fn csv_non_finite_odometry() {
 
 // ---- ROS 2 bags and the dataset string ------------------------------------------------------
 
-/// The exit code and first stderr line of `run --dataset <dataset>`.
-fn run_with_dataset(name: &str, dataset: &str) -> (Option<i32>, String) {
+/// The exit code and first stderr line of `icp-eval ARGS --quiet --no-plots --out DIR`, DIR a
+/// fresh scratch directory named `name`.
+fn run_cli(name: &str, args: &[&str]) -> (Option<i32>, String) {
     let out = common::scratch_dir(name);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
-        .args([
-            "run",
-            "--dataset",
-            dataset,
-            "--quiet",
-            "--no-plots",
-            "--out",
-        ])
+        .args(args)
+        .args(["--quiet", "--no-plots", "--out"])
         .arg(out.join("out"))
         .output()
         .unwrap();
@@ -340,6 +335,11 @@ fn run_with_dataset(name: &str, dataset: &str) -> (Option<i32>, String) {
         o.status.code(),
         err.lines().next().unwrap_or_default().to_owned(),
     )
+}
+
+/// The exit code and first stderr line of `run --dataset <dataset>`.
+fn run_with_dataset(name: &str, dataset: &str) -> (Option<i32>, String) {
+    run_cli(name, &["run", "--dataset", dataset])
 }
 
 #[test]
@@ -402,27 +402,15 @@ fn rosbag_two_laser_scan_topics_without_scan_option() {
 
 #[test]
 fn dataset_option_given_by_string_and_flag_differently() {
-    let out = common::scratch_dir("matrix_dataset_twice");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
-        .args([
-            "run",
-            "--dataset",
-            "synthetic?scans=3",
-            "--scans",
-            "4",
-            "--quiet",
-            "--out",
-        ])
-        .arg(out.join("out"))
-        .output()
-        .unwrap();
-    assert_eq!(o.status.code(), Some(2));
     assert_eq!(
-        String::from_utf8_lossy(&o.stderr)
-            .lines()
-            .next()
-            .unwrap_or_default(),
-        "error: dataset synthetic: option scans given twice (\"3\" and \"4\")"
+        run_cli(
+            "matrix_dataset_twice",
+            &["run", "--dataset", "synthetic?scans=3", "--scans", "4"]
+        ),
+        (
+            Some(2),
+            "error: dataset synthetic: option scans given twice (\"3\" and \"4\")".to_owned()
+        )
     );
 }
 
@@ -430,27 +418,17 @@ fn dataset_option_given_by_string_and_flag_differently() {
 
 /// The first line the harness prints on stderr for `run --sensor <text>`, and its exit code.
 fn run_with_sensor(name: &str, text: &str) -> (Option<i32>, String) {
-    let out = common::scratch_dir(name);
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
-        .args([
+    run_cli(
+        name,
+        &[
             "run",
             "--dataset",
             "synthetic",
             "--scans",
             "3",
-            "--quiet",
-            "--no-plots",
             "--sensor",
             text,
-            "--out",
-        ])
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    (
-        o.status.code(),
-        err.lines().next().unwrap_or_default().to_owned(),
+        ],
     )
 }
 
