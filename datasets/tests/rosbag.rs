@@ -372,6 +372,23 @@ fn missing_and_ambiguous_topics_are_typed_errors() {
         let ds = open(&path, "?scan=/front&reference=none").unwrap();
         assert_eq!(ds.reference, None);
 
+        // Topics of other types are listed but their messages are not kept (nor decoded).
+        let path = write(
+            &dir,
+            "with_images",
+            storage,
+            &[("/camera", "sensor_msgs/msg/Image"), ("/scan", SCAN)],
+            &[
+                (0, 1, vec![7; 5000]),
+                (1, 1, small_scan(t)),
+                (0, 2, vec![1]),
+            ],
+        );
+        let bag = datasets::rosbag::storage::read(&path).unwrap();
+        assert_eq!(bag.topics.len(), 2);
+        assert_eq!(bag.messages.len(), 1, "{storage:?}");
+        assert_eq!(open(&path, "").unwrap().scans.len(), 1);
+
         // A topic without messages is still a topic (the MCAP summary, the sqlite topics table).
         let path = write(
             &dir,

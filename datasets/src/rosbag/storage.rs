@@ -17,6 +17,13 @@ pub struct Topic {
     pub encoding: String,
 }
 
+/// Whether a topic's messages are kept: those of the types the loader reads (scans and
+/// references); the rest of a bag (images, point clouds, tf) is skipped while reading.
+fn wanted(topic: &Topic) -> bool {
+    topic.ty == super::messages::LASER_SCAN
+        || super::messages::REFERENCE_TYPES.contains(&topic.ty.as_str())
+}
+
 /// One message: its topic (an index into [`Bag::topics`]) and its serialized bytes.
 #[derive(Clone, Debug)]
 pub struct Message {
@@ -26,7 +33,7 @@ pub struct Message {
     pub data: Vec<u8>,
 }
 
-/// A bag's topics and messages, in storage order.
+/// A bag's topics (all of them) and the messages of the wanted ones, in storage order.
 #[derive(Clone, Debug, Default)]
 pub struct Bag {
     /// The topics (deduplicated by name and type over the bag's files).
@@ -208,10 +215,12 @@ fn mcap_into(file: &Path, bytes: &[u8], bag: &mut Bag) -> Result<(), DatasetErro
             ty,
             encoding: message.channel.message_encoding.clone(),
         });
-        bag.messages.push(Message {
-            topic,
-            data: message.data.into_owned(),
-        });
+        if wanted(&bag.topics[topic]) {
+            bag.messages.push(Message {
+                topic,
+                data: message.data.into_owned(),
+            });
+        }
     }
     Ok(())
 }
@@ -254,20 +263,19 @@ fn read_sqlite(file: &Path, bag: &mut Bag) -> Result<(), DatasetError> {
     let mut stmt = db
         .prepare("SELECT topic_id, data FROM messages ORDER BY timestamp, id")
         .map_err(sql)?;
-    let rows = stmt
-        .query_map([], |row| {
-            Ok((row.get::<_, i64>(0)?, row.get::<_, Vec<u8>>(1)?))
-        })
-        .map_err(sql)?;
-    for row in rows {
-        let (id, data) = row.map_err(sql)?;
+    let mut rows = stmt.query([]).map_err(sql)?;
+    while let Some(row) = rows.next().map_err(sql)? {
+        let id: i64 = row.get(0).map_err(sql)?;
         let topic = *ids.get(&id).ok_or_else(|| {
             storage_error(
                 file,
                 format!("a message of topic id {id}, which the topics table lacks"),
             )
         })?;
-        bag.messages.push(Message { topic, data });
+        if wanted(&bag.topics[topic]) {
+            let data: Vec<u8> = row.get(1).map_err(sql)?;
+            bag.messages.push(Message { topic, data });
+        }
     }
     Ok(())
 }
