@@ -135,6 +135,37 @@ pub enum LoadWarning {
         /// The first scan of the first such pair.
         first_scan: usize,
     },
+    /// Readings that are no-returns because they are not finite or lie outside the scanner's
+    /// stated `[range_min, range_max]` (ROS `LaserScan`): left out of the scans.
+    NoReturnReadings {
+        /// All readings of the scans kept.
+        readings: usize,
+        /// NaN or ±∞.
+        non_finite: usize,
+        /// Finite and below `range_min`.
+        below_range_min: usize,
+        /// Finite and above `range_max`.
+        above_range_max: usize,
+    },
+    /// Scans stored out of their stamps' order: the scans were sorted by stamp.
+    ScansReordered {
+        /// Scans whose stamp is earlier than the one stored before them.
+        scans: usize,
+    },
+    /// Scans stamped before the reference's first message or after its last: left out, as
+    /// they have no reference.
+    ScansOutsideReference {
+        /// Scans before the reference's time span.
+        before: usize,
+        /// Scans after it.
+        after: usize,
+    },
+    /// Reference messages that carry no usable pose (a non-finite position or a zero
+    /// quaternion; a GNSS fix with status "no fix" or no position): skipped.
+    UnusableReferenceMessages {
+        /// Messages skipped.
+        messages: usize,
+    },
 }
 
 /// Which pose channel of a dataset a figure was measured on.
@@ -182,6 +213,31 @@ impl fmt::Display for LoadWarning {
                 "timestamps do not increase at {pairs} consecutive pair(s), first at scan \
                  {first_scan} → {}: those pairs have no usable time step",
                 first_scan + 1
+            ),
+            Self::NoReturnReadings {
+                readings,
+                non_finite,
+                below_range_min,
+                above_range_max,
+            } => write!(
+                f,
+                "{} of {readings} readings are no-returns: {non_finite} NaN or ±∞, \
+                 {below_range_min} below range_min, {above_range_max} above range_max",
+                non_finite + below_range_min + above_range_max
+            ),
+            Self::ScansReordered { scans } => write!(
+                f,
+                "{scans} scan(s) were stored out of stamp order: scans sorted by header.stamp"
+            ),
+            Self::ScansOutsideReference { before, after } => write!(
+                f,
+                "{before} scan(s) before and {after} after the reference's time span have no \
+                 reference and were left out (reference=none keeps them)"
+            ),
+            Self::UnusableReferenceMessages { messages } => write!(
+                f,
+                "{messages} reference message(s) without a usable pose (non-finite, zero \
+                 quaternion, or no GNSS fix) were skipped"
             ),
         }
     }

@@ -60,6 +60,24 @@ pub enum DatasetError {
         looked: Vec<PathBuf>,
         hint: String,
     },
+    /// A bag's storage file cannot be read (not MCAP or sqlite3, truncated, damaged).
+    #[error("{path}: {what}")]
+    BagStorage { path: PathBuf, what: String },
+    /// A bag lacks the topic asked for, or has several where one is needed.
+    #[error("{path}: {what}")]
+    BagTopic { path: PathBuf, what: String },
+    /// A bag message that does not decode as its topic's type.
+    #[error("{path}: message {index} of topic {topic}: {source}")]
+    BagMessage {
+        path: PathBuf,
+        topic: String,
+        index: usize,
+        #[source]
+        source: crate::rosbag::cdr::CdrError,
+    },
+    /// A `--dataset` string that does not name a loadable dataset.
+    #[error(transparent)]
+    Source(#[from] crate::source::SourceError),
     /// A parameter of the loader is out of range.
     #[error("invalid loader parameter {name} = {value}: {reason}")]
     InvalidParameter {

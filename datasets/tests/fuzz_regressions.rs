@@ -1,6 +1,7 @@
 //! Replays every input kept in `fuzz/regressions/` through the same calls as the fuzz
 //! targets: each must give a dataset or a typed error, never a panic.
 
+use std::fmt::Display;
 use std::path::{Path, PathBuf};
 
 use datasets::csvdir::DatasetMeta;
@@ -103,5 +104,46 @@ fn csv_inputs() {
             name == "odometry",
             "{name} as odometry"
         );
+    }
+}
+
+/// The `rosbag_cdr` target's dispatch: `Ok(())` for a decoded value, the error otherwise.
+#[cfg(feature = "rosbag-mcap")]
+fn rosbag_cdr(data: &[u8]) -> Result<(), String> {
+    use datasets::rosbag::messages::{self, ODOMETRY, POSE_STAMPED, POSE_WITH_COVARIANCE_STAMPED};
+    let Some((&selector, rest)) = data.split_first() else {
+        return Err("empty".into());
+    };
+    let e = |e: &dyn Display| e.to_string();
+    match selector % 4 {
+        0 => messages::laser_scan(rest).map(|_| ()).map_err(|x| e(&x)),
+        1 => [ODOMETRY, POSE_STAMPED, POSE_WITH_COVARIANCE_STAMPED]
+            .iter()
+            .map(|ty| {
+                messages::stamped_pose(ty, rest)
+                    .map(|_| ())
+                    .map_err(|x| e(&x))
+            })
+            .find(Result::is_ok)
+            .unwrap_or_else(|| Err("no rigid-pose type decodes it".into())),
+        2 => messages::nav_sat_fix(rest).map(|_| ()).map_err(|x| e(&x)),
+        _ => datasets::rosbag::load_mcap_bytes(
+            Path::new("fuzz.mcap"),
+            rest,
+            &datasets::rosbag::RosbagOptions::default(),
+        )
+        .map(|ds| assert_eq!(ds.scans.len(), 2))
+        .map_err(|x| e(&x)),
+    }
+}
+
+#[cfg(feature = "rosbag-mcap")]
+#[test]
+fn rosbag_cdr_inputs() {
+    let bad = ["laser_scan_huge_count", "mcap_truncated"];
+    for (path, data) in inputs("rosbag_cdr") {
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        let r = rosbag_cdr(&data);
+        assert_eq!(r.is_ok(), !bad.contains(&name.as_str()), "{name}: {r:?}");
     }
 }

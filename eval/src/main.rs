@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use datasets::synthetic::{self, Scenario};
-use datasets::{marina, Dataset};
+use datasets::{marina, Dataset, DatasetSource};
 use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
@@ -150,10 +150,18 @@ struct ReproduceArgs {
     common: Common,
 }
 
+/// `--dataset`'s one-line help: the registered kinds.
+fn dataset_help_short() -> String {
+    format!(
+        "{} (options: KIND:TARGET?KEY=VALUE&...; see --help)",
+        datasets::source::syntaxes()
+    )
+}
+
 #[derive(Args)]
 struct DataArgs {
-    /// marina | synthetic[:paper|marina-like] | carmen:PATH (.log or .log.gz) | csv:DIR
-    #[arg(long)]
+    /// The dataset (kinds and options listed by --help, generated from the loader registry).
+    #[arg(long, help = dataset_help_short(), long_help = datasets::source::help())]
     dataset: String,
     /// Directory of the marina files.
     #[arg(long)]
@@ -168,12 +176,13 @@ struct DataArgs {
     /// Synthetic only: seed of the scenario (default: the scenario's own).
     #[arg(long)]
     scenario_seed: Option<u64>,
-    /// CARMEN only: field of view of the laser, degrees.
-    #[arg(long, default_value_t = 180.0)]
-    carmen_fov_deg: f64,
-    /// CARMEN only: readings at or beyond this range are no-returns, metres.
-    #[arg(long, default_value_t = 50.0)]
-    carmen_max_range_m: f64,
+    /// CARMEN only: field of view of the laser, degrees (default 180; or ?fov_deg=).
+    #[arg(long)]
+    carmen_fov_deg: Option<f64>,
+    /// CARMEN only: readings at or beyond this range are no-returns, metres (default 50; or
+    /// ?max_range_m=).
+    #[arg(long)]
+    carmen_max_range_m: Option<f64>,
     /// The sensor model of this run, as overrides of the dataset's:
     /// sigma_r_const_m=M,sigma_r_per_m=M_PER_M,sigma_alpha_deg=DEG (any of them). The
     /// built-in variants' weights, the metrics and the noise bound use it; the data are not
@@ -958,44 +967,31 @@ fn list() -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The dataset `--dataset` names, with the spacing of `--dt` and the sensor model of
-/// `--sensor`.
+/// The dataset `--dataset` names (through the loader registry, [`datasets::source`]), with
+/// the flags that set loader options (`--data-dir`, `--dt`, `--scans`, `--scenario-seed`,
+/// `--carmen-*`) and the sensor model of `--sensor`.
 fn load_dataset(args: &DataArgs) -> Result<Dataset> {
-    let (kind, rest) = args.dataset.split_once(':').unwrap_or((&args.dataset, ""));
-    let mut ds = match kind {
-        "marina" => {
-            let dir = marina::find_data_dir(args.data_dir.as_deref())?;
-            marina::load(&dir, &marina::MarinaOptions { dt_s: args.dt.unwrap_or(1.0), ..Default::default() })?
+    let mut source: DatasetSource = args.dataset.parse()?;
+    let flags: [(&str, Option<String>); 6] = [
+        (
+            "data_dir",
+            args.data_dir.as_ref().map(|d| d.display().to_string()),
+        ),
+        ("dt_s", args.dt.map(|v| v.to_string())),
+        ("scans", args.scans.map(|v| v.to_string())),
+        ("seed", args.scenario_seed.map(|v| v.to_string())),
+        ("fov_deg", args.carmen_fov_deg.map(|v| v.to_string())),
+        (
+            "max_range_m",
+            args.carmen_max_range_m.map(|v| v.to_string()),
+        ),
+    ];
+    for (key, value) in flags {
+        if let Some(value) = value {
+            source.set_from_flag(key, value)?;
         }
-        "synthetic" => {
-            let name = if rest.is_empty() { "paper" } else { rest };
-            let mut scenario = Scenario::by_name(name)
-                .with_context(|| format!("unknown synthetic scenario {name:?}: expected paper or marina-like"))?;
-            if let Some(seed) = args.scenario_seed {
-                scenario.seed = seed;
-            }
-            if let Some(dt) = args.dt {
-                scenario.dt_s = dt;
-            }
-            if let Some(n) = args.scans {
-                scenario.n_scans = n;
-            }
-            synthetic::generate(&scenario)?
-        }
-        "carmen" if !rest.is_empty() => {
-            let options = datasets::carmen::CarmenOptions {
-                fov_deg: args.carmen_fov_deg,
-                max_range_m: args.carmen_max_range_m,
-                ..Default::default()
-            };
-            datasets::carmen::load(Path::new(rest), &options)?
-        }
-        "csv" if !rest.is_empty() => datasets::csvdir::load(Path::new(rest))?,
-        other => bail!("unknown dataset {other:?}: expected marina, synthetic[:scenario], carmen:PATH or csv:DIR"),
-    };
-    if let (Some(dt), "carmen" | "csv") = (args.dt, kind) {
-        ds.set_dt_s(dt).context("--dt")?;
     }
+    let mut ds = source.open()?;
     if let Some(overrides) = &args.sensor {
         ds.sensor = overrides.apply(ds.sensor).context("--sensor")?;
     }

@@ -318,31 +318,117 @@ fn csv_non_finite_odometry() {
     );
 }
 
-// ---- The sensor model of a run (`--sensor`) ---------------------------------------------------
+// ---- ROS 2 bags and the dataset string ------------------------------------------------------
 
-/// The first line the harness prints on stderr for `run --sensor <text>`, and its exit code.
-fn run_with_sensor(name: &str, text: &str) -> (Option<i32>, String) {
+/// The exit code and first stderr line of `icp-eval ARGS --quiet --no-plots --out DIR`, DIR a
+/// fresh scratch directory named `name`.
+fn run_cli(name: &str, args: &[&str]) -> (Option<i32>, String) {
     let out = common::scratch_dir(name);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
-        .args([
-            "run",
-            "--dataset",
-            "synthetic",
-            "--scans",
-            "3",
-            "--quiet",
-            "--no-plots",
-            "--sensor",
-            text,
-            "--out",
-        ])
-        .arg(&out)
+        .args(args)
+        .args(["--quiet", "--no-plots", "--out"])
+        .arg(out.join("out"))
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     (
         o.status.code(),
         err.lines().next().unwrap_or_default().to_owned(),
+    )
+}
+
+/// The exit code and first stderr line of `run --dataset <dataset>`.
+fn run_with_dataset(name: &str, dataset: &str) -> (Option<i32>, String) {
+    run_cli(name, &["run", "--dataset", dataset])
+}
+
+#[test]
+fn rosbag_missing_file() {
+    assert_eq!(
+        run_with_dataset("matrix_rosbag_missing", "rosbag:/nonexistent/run.mcap"),
+        (
+            Some(2),
+            "error: cannot read /nonexistent/run.mcap: No such file or directory (os error 2)"
+                .to_owned()
+        )
+    );
+}
+
+#[test]
+fn rosbag_unknown_option() {
+    assert_eq!(
+        run_with_dataset("matrix_rosbag_option", "rosbag:run.mcap?topic=/scan"),
+        (
+            Some(2),
+            "error: dataset rosbag: unknown option \"topic\": expected one of scan, reference, \
+             reference_kind, dt_s"
+                .to_owned()
+        )
+    );
+}
+
+#[test]
+fn rosbag_two_laser_scan_topics_without_scan_option() {
+    let dir = common::scratch_dir("matrix_rosbag_two_scans");
+    let path = dir.join("two.mcap");
+    let mut w = mcap::Writer::new(std::io::BufWriter::new(
+        std::fs::File::create(&path).unwrap(),
+    ))
+    .unwrap();
+    for topic in ["/front/scan", "/rear/scan"] {
+        let schema = w
+            .add_schema("sensor_msgs/msg/LaserScan", "ros2msg", b"")
+            .unwrap();
+        w.add_channel(schema, topic, "cdr", &Default::default())
+            .unwrap();
+    }
+    w.finish().unwrap();
+    drop(w);
+    assert_eq!(
+        run_with_dataset(
+            "matrix_rosbag_two_scans_run",
+            &format!("rosbag:{}", path.display())
+        ),
+        (
+            Some(2),
+            format!(
+                "error: {}: 2 LaserScan topics: /front/scan (sensor_msgs/msg/LaserScan), \
+                 /rear/scan (sensor_msgs/msg/LaserScan); choose one with ?scan=/topic",
+                path.display()
+            )
+        )
+    );
+}
+
+#[test]
+fn dataset_option_given_by_string_and_flag_differently() {
+    assert_eq!(
+        run_cli(
+            "matrix_dataset_twice",
+            &["run", "--dataset", "synthetic?scans=3", "--scans", "4"]
+        ),
+        (
+            Some(2),
+            "error: dataset synthetic: option scans given twice (\"3\" and \"4\")".to_owned()
+        )
+    );
+}
+
+// ---- The sensor model of a run (`--sensor`) ---------------------------------------------------
+
+/// The first line the harness prints on stderr for `run --sensor <text>`, and its exit code.
+fn run_with_sensor(name: &str, text: &str) -> (Option<i32>, String) {
+    run_cli(
+        name,
+        &[
+            "run",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "3",
+            "--sensor",
+            text,
+        ],
     )
 }
 
@@ -541,30 +627,11 @@ fn scan_pair_with_no_overlap() {
 
 // ---- Initial guesses (`--init`, `--start-gate`) -------------------------------------------
 
-/// The first line the harness prints on stderr for `run <args>` on three synthetic scans, and
-/// its exit code.
+/// The exit code and first stderr line of `run <args>` on three synthetic scans.
 fn run_with_args(name: &str, args: &[&str]) -> (Option<i32>, String) {
-    let out = common::scratch_dir(name);
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
-        .args([
-            "run",
-            "--dataset",
-            "synthetic",
-            "--scans",
-            "3",
-            "--quiet",
-            "--no-plots",
-        ])
-        .args(args)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    (
-        o.status.code(),
-        err.lines().next().unwrap_or_default().to_owned(),
-    )
+    let mut all = vec!["run", "--dataset", "synthetic", "--scans", "3"];
+    all.extend_from_slice(args);
+    run_cli(name, &all)
 }
 
 #[test]

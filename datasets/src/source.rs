@@ -1,0 +1,616 @@
+//! The loader registry: a dataset named by one string, `kind[:target][?key=value&...]`
+//! (`carmen:aces.log.gz?fov_deg=180`, `rosbag:run/?scan=/front/scan&reference=/odom`), each
+//! kind registered once in [`KINDS`] with its options and help text, so a command line's help
+//! is generated from it ([`help`]) and adding a format is one entry here.
+//!
+//! Each kind's options become its own typed struct ([`crate::carmen::CarmenOptions`],
+//! [`crate::rosbag::RosbagOptions`], ...); a bad option is a [`SourceError`] naming it.
+//! Values are taken as written (no percent-decoding): a path holding `?` or `&` cannot be
+//! named this way.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use crate::carmen::{self, CarmenOptions};
+use crate::rosbag::{self, ReferenceChoice, RosbagOptions};
+use crate::synthetic::{self, Scenario};
+use crate::{csvdir, marina, Dataset, DatasetError, ReferenceKind};
+
+/// What a kind takes after `kind:`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Target {
+    /// Nothing.
+    None,
+    /// An optional value, shown as this placeholder.
+    Optional(&'static str),
+    /// A required value, shown as this placeholder.
+    Required(&'static str),
+}
+
+/// One option of a kind: `?name=value`.
+#[derive(Clone, Copy, Debug)]
+pub struct OptionDoc {
+    /// The key.
+    pub name: &'static str,
+    /// What it sets, with its default.
+    pub help: &'static str,
+}
+
+/// A registered dataset kind.
+pub struct Kind {
+    /// The name before the `:`.
+    pub name: &'static str,
+    /// What follows the `:`.
+    pub target: Target,
+    /// One line on what the kind reads.
+    pub summary: &'static str,
+    /// Its options.
+    pub options: &'static [OptionDoc],
+    open: fn(&DatasetSource) -> Result<Dataset, DatasetError>,
+}
+
+impl Kind {
+    /// `name`, `name[:X]` or `name:X`.
+    pub fn syntax(&self) -> String {
+        match self.target {
+            Target::None => self.name.to_owned(),
+            Target::Optional(p) => format!("{}[:{p}]", self.name),
+            Target::Required(p) => format!("{}:{p}", self.name),
+        }
+    }
+}
+
+const DT_S: OptionDoc = OptionDoc {
+    name: "dt_s",
+    help: "nominal time between scans, s, where scans carry no timestamps (also --dt)",
+};
+
+/// Every dataset kind, in the order help lists them.
+pub static KINDS: &[Kind] = &[
+    Kind {
+        name: "marina",
+        target: Target::None,
+        summary: "the paper's marina MATLAB files (found in data_dir, $ICP_DATA_DIR, ./datasets)",
+        options: &[
+            OptionDoc {
+                name: "data_dir",
+                help: "directory of the files or of a marina/ folder (also --data-dir)",
+            },
+            OptionDoc {
+                name: "dt_s",
+                help: "time between scans, s (default 1.0; also --dt)",
+            },
+        ],
+        open: open_marina,
+    },
+    Kind {
+        name: "synthetic",
+        target: Target::Optional("paper|marina-like"),
+        summary: "the simulated harbour with exact ground truth (default scenario: paper)",
+        options: &[
+            OptionDoc {
+                name: "scans",
+                help: "number of scans (default: the scenario's; also --scans)",
+            },
+            OptionDoc {
+                name: "seed",
+                help: "seed of the scenario (default: its own; also --scenario-seed)",
+            },
+            OptionDoc {
+                name: "dt_s",
+                help: "time between scans, s (default: the scenario's; also --dt)",
+            },
+        ],
+        open: open_synthetic,
+    },
+    Kind {
+        name: "carmen",
+        target: Target::Required("PATH"),
+        summary: "a CARMEN FLASER log (.log or .log.gz)",
+        options: &[
+            OptionDoc {
+                name: "fov_deg",
+                help: "field of view of the laser, degrees (default 180; also --carmen-fov-deg)",
+            },
+            OptionDoc {
+                name: "max_range_m",
+                help: "readings at or beyond it are no-returns, m (default 50; also --carmen-max-range-m)",
+            },
+            OptionDoc {
+                name: "reference_kind",
+                help: "what the logged poses are: slam_corrected (default) or odometry",
+            },
+            DT_S,
+        ],
+        open: open_carmen,
+    },
+    Kind {
+        name: "csv",
+        target: Target::Required("DIR"),
+        summary: "our CSV format (scans.csv, poses.csv, dataset.json; written by `synth`)",
+        options: &[DT_S],
+        open: open_csv,
+    },
+    Kind {
+        name: "rosbag",
+        target: Target::Required("PATH"),
+        summary: "a ROS 2 bag: its directory (metadata.yaml) or one .mcap / .db3 file; \
+                  LaserScan scans, reference from Odometry, PoseStamped, \
+                  PoseWithCovarianceStamped or NavSatFix",
+        options: &[
+            OptionDoc {
+                name: "scan",
+                help: "the LaserScan topic (default: the only one)",
+            },
+            OptionDoc {
+                name: "reference",
+                help: "the reference topic, or none (default: the only one of a reference type)",
+            },
+            OptionDoc {
+                name: "reference_kind",
+                help: "what the reference is: ground_truth, slam_corrected, odometry, unknown \
+                       (default: odometry for Odometry, unknown for poses, gnss_positions for NavSatFix)",
+            },
+            DT_S,
+        ],
+        open: open_rosbag,
+    },
+];
+
+/// The help text of a `--dataset` option, generated from [`KINDS`].
+pub fn help() -> String {
+    let mut s = String::from("The dataset: KIND[:TARGET][?KEY=VALUE&...], one of:\n");
+    for k in KINDS {
+        s += &format!("  {}: {}\n", k.syntax(), k.summary);
+        for o in k.options {
+            s += &format!("      ?{}=: {}\n", o.name, o.help);
+        }
+    }
+    s
+}
+
+/// The kinds' syntaxes, `marina | synthetic[:...] | ...`.
+pub fn syntaxes() -> String {
+    KINDS
+        .iter()
+        .map(Kind::syntax)
+        .collect::<Vec<_>>()
+        .join(" | ")
+}
+
+/// Why a dataset string does not name a loadable dataset.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SourceError {
+    /// The kind is not registered.
+    #[error("unknown dataset {kind:?}: expected {expected}")]
+    UnknownKind {
+        /// The kind given.
+        kind: String,
+        /// The registered kinds' syntaxes.
+        expected: String,
+    },
+    /// A kind that needs a target was given none.
+    #[error("dataset {kind}: missing the target, expected {syntax}")]
+    MissingTarget {
+        /// The kind.
+        kind: &'static str,
+        /// Its syntax.
+        syntax: String,
+    },
+    /// A kind that takes no target was given one.
+    #[error("dataset {kind} takes nothing after `:` (got {target:?})")]
+    UnexpectedTarget {
+        /// The kind.
+        kind: &'static str,
+        /// What was given.
+        target: String,
+    },
+    /// An option the kind does not have, or one without `=`.
+    #[error("dataset {kind}: unknown option {option:?}: expected one of {expected}")]
+    UnknownOption {
+        /// The kind.
+        kind: &'static str,
+        /// The option given.
+        option: String,
+        /// The kind's options.
+        expected: String,
+    },
+    /// An option given twice (in the string, or in the string and by a flag, differently).
+    #[error("dataset {kind}: option {option} given twice ({first:?} and {second:?})")]
+    Repeated {
+        /// The kind.
+        kind: &'static str,
+        /// The option.
+        option: &'static str,
+        /// The first value.
+        first: String,
+        /// The second value.
+        second: String,
+    },
+    /// An option whose value is not usable.
+    #[error("dataset {kind}: option {option} = {value:?}: {expected}")]
+    BadValue {
+        /// The kind.
+        kind: &'static str,
+        /// The option.
+        option: &'static str,
+        /// The value given.
+        value: String,
+        /// What it must be.
+        expected: String,
+    },
+}
+
+/// A parsed dataset string: a registered kind, its target and its options.
+#[derive(Clone)]
+pub struct DatasetSource {
+    kind: &'static Kind,
+    target: Option<String>,
+    options: Vec<(&'static str, String)>,
+}
+
+impl fmt::Debug for DatasetSource {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("DatasetSource")
+            .field("kind", &self.kind.name)
+            .field("target", &self.target)
+            .field("options", &self.options)
+            .finish()
+    }
+}
+
+impl FromStr for DatasetSource {
+    type Err = SourceError;
+
+    fn from_str(text: &str) -> Result<Self, SourceError> {
+        let (head, query) = text.split_once('?').unwrap_or((text, ""));
+        let (name, target) = match head.split_once(':') {
+            Some((n, t)) => (n, Some(t.to_owned())),
+            None => (head, None),
+        };
+        let kind =
+            KINDS
+                .iter()
+                .find(|k| k.name == name)
+                .ok_or_else(|| SourceError::UnknownKind {
+                    kind: name.to_owned(),
+                    expected: syntaxes(),
+                })?;
+        let target = target.filter(|t| !t.is_empty());
+        match (kind.target, &target) {
+            (Target::Required(_), None) => {
+                return Err(SourceError::MissingTarget {
+                    kind: kind.name,
+                    syntax: kind.syntax(),
+                })
+            }
+            (Target::None, Some(t)) => {
+                return Err(SourceError::UnexpectedTarget {
+                    kind: kind.name,
+                    target: t.clone(),
+                })
+            }
+            _ => {}
+        }
+        let mut source = Self {
+            kind,
+            target,
+            options: Vec::new(),
+        };
+        for pair in query.split('&').filter(|p| !p.is_empty()) {
+            let (key, value) = pair.split_once('=').unwrap_or((pair, ""));
+            let option = source.option_name(key)?;
+            if let Some((_, first)) = source.options.iter().find(|(k, _)| *k == option) {
+                return Err(SourceError::Repeated {
+                    kind: kind.name,
+                    option,
+                    first: first.clone(),
+                    second: value.to_owned(),
+                });
+            }
+            source.options.push((option, value.to_owned()));
+        }
+        Ok(source)
+    }
+}
+
+impl DatasetSource {
+    /// The kind.
+    pub fn kind(&self) -> &'static Kind {
+        self.kind
+    }
+
+    /// The registered name of option `key`, or the error naming it.
+    fn option_name(&self, key: &str) -> Result<&'static str, SourceError> {
+        self.kind
+            .options
+            .iter()
+            .find(|o| o.name == key)
+            .map(|o| o.name)
+            .ok_or_else(|| SourceError::UnknownOption {
+                kind: self.kind.name,
+                option: key.to_owned(),
+                expected: self
+                    .kind
+                    .options
+                    .iter()
+                    .map(|o| o.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })
+    }
+
+    /// Sets option `key` from a command-line flag when the kind has it (flags that do not
+    /// apply to the kind are ignored, as before the registry); refused when the string gave
+    /// it a different value.
+    pub fn set_from_flag(
+        &mut self,
+        key: &str,
+        value: impl fmt::Display,
+    ) -> Result<(), SourceError> {
+        let Ok(option) = self.option_name(key) else {
+            return Ok(());
+        };
+        let value = value.to_string();
+        let same = |a: &str, b: &str| {
+            a == b || matches!((a.parse::<f64>(), b.parse::<f64>()), (Ok(x), Ok(y)) if x == y)
+        };
+        match self.options.iter().find(|(k, _)| *k == option) {
+            Some((_, first)) if !same(first, &value) => Err(SourceError::Repeated {
+                kind: self.kind.name,
+                option,
+                first: first.clone(),
+                second: value,
+            }),
+            Some(_) => Ok(()),
+            None => {
+                self.options.push((option, value));
+                Ok(())
+            }
+        }
+    }
+
+    /// The raw value of option `key`.
+    fn raw(&self, key: &str) -> Option<&str> {
+        self.options
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// Option `key` parsed, `expected` saying what it must be when it does not parse.
+    fn get<T: FromStr>(&self, key: &'static str, expected: &str) -> Result<Option<T>, SourceError> {
+        self.raw(key)
+            .map(|v| {
+                v.parse().map_err(|_| SourceError::BadValue {
+                    kind: self.kind.name,
+                    option: key,
+                    value: v.to_owned(),
+                    expected: expected.to_owned(),
+                })
+            })
+            .transpose()
+    }
+
+    /// `dt_s`, which must be finite and positive.
+    fn dt_s(&self) -> Result<Option<f64>, SourceError> {
+        let dt = self.get::<f64>("dt_s", "a time in seconds")?;
+        match dt {
+            Some(d) if !(d.is_finite() && d > 0.0) => Err(SourceError::BadValue {
+                kind: self.kind.name,
+                option: "dt_s",
+                value: d.to_string(),
+                expected: "must be finite and positive".into(),
+            }),
+            _ => Ok(dt),
+        }
+    }
+
+    /// `reference_kind`, one of `allowed`.
+    fn reference_kind(
+        &self,
+        allowed: &[ReferenceKind],
+    ) -> Result<Option<ReferenceKind>, SourceError> {
+        let names = |ks: &[ReferenceKind]| {
+            ks.iter()
+                .map(|k| {
+                    serde_json::to_value(k).map_or_else(
+                        |_| String::new(),
+                        |v| v.as_str().unwrap_or_default().to_owned(),
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        self.raw("reference_kind")
+            .map(|v| {
+                serde_json::from_value::<ReferenceKind>(serde_json::Value::String(v.to_owned()))
+                    .ok()
+                    .filter(|k| allowed.contains(k))
+                    .ok_or_else(|| SourceError::BadValue {
+                        kind: self.kind.name,
+                        option: "reference_kind",
+                        value: v.to_owned(),
+                        expected: format!("expected one of {}", names(allowed)),
+                    })
+            })
+            .transpose()
+    }
+
+    /// The target as a path.
+    fn path(&self) -> &Path {
+        Path::new(self.target.as_deref().unwrap_or_default())
+    }
+
+    /// Loads the dataset.
+    pub fn open(&self) -> Result<Dataset, DatasetError> {
+        (self.kind.open)(self)
+    }
+}
+
+/// Parses and loads `text` (`kind[:target][?key=value&...]`).
+pub fn open(text: &str) -> Result<Dataset, DatasetError> {
+    text.parse::<DatasetSource>()?.open()
+}
+
+/// `dt_s` set on a loaded dataset (it replaces an assumed spacing).
+fn with_dt(mut ds: Dataset, dt_s: Option<f64>) -> Result<Dataset, DatasetError> {
+    if let Some(dt) = dt_s {
+        ds.set_dt_s(dt)?;
+    }
+    Ok(ds)
+}
+
+fn open_marina(s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    let data_dir = s.raw("data_dir").map(PathBuf::from);
+    let dir = marina::find_data_dir(data_dir.as_deref())?;
+    let options = marina::MarinaOptions {
+        dt_s: s.dt_s()?.unwrap_or(1.0),
+        ..Default::default()
+    };
+    marina::load(&dir, &options)
+}
+
+fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    let name = s.target.as_deref().unwrap_or("paper");
+    let mut scenario = Scenario::by_name(name).ok_or_else(|| SourceError::BadValue {
+        kind: "synthetic",
+        option: "scenario",
+        value: name.to_owned(),
+        expected: "expected paper or marina-like".into(),
+    })?;
+    if let Some(seed) = s.get("seed", "a non-negative integer")? {
+        scenario.seed = seed;
+    }
+    if let Some(dt) = s.dt_s()? {
+        scenario.dt_s = dt;
+    }
+    if let Some(n) = s.get("scans", "a count of scans")? {
+        scenario.n_scans = n;
+    }
+    synthetic::generate(&scenario)
+}
+
+fn open_carmen(s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    let defaults = CarmenOptions::default();
+    let options = CarmenOptions {
+        fov_deg: s
+            .get("fov_deg", "an angle in degrees")?
+            .unwrap_or(defaults.fov_deg),
+        max_range_m: s
+            .get("max_range_m", "a range in metres")?
+            .unwrap_or(defaults.max_range_m),
+        reference_kind: s
+            .reference_kind(&[ReferenceKind::SlamCorrected, ReferenceKind::Odometry])?
+            .unwrap_or(defaults.reference_kind),
+        ..defaults
+    };
+    with_dt(carmen::load(s.path(), &options)?, s.dt_s()?)
+}
+
+fn open_csv(s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    with_dt(csvdir::load(s.path())?, s.dt_s()?)
+}
+
+fn open_rosbag(s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    let options = RosbagOptions {
+        scan_topic: s.raw("scan").map(str::to_owned),
+        reference: match s.raw("reference") {
+            None => ReferenceChoice::Auto,
+            Some("none") => ReferenceChoice::Off,
+            Some(t) => ReferenceChoice::Topic(t.to_owned()),
+        },
+        reference_kind: s.reference_kind(&[
+            ReferenceKind::GroundTruth,
+            ReferenceKind::SlamCorrected,
+            ReferenceKind::Odometry,
+            ReferenceKind::GnssPositions,
+            ReferenceKind::Unknown,
+        ])?,
+    };
+    with_dt(rosbag::load(s.path(), &options)?, s.dt_s()?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_kinds_targets_and_options_and_names_what_is_wrong() {
+        let s: DatasetSource = "carmen:a.log?fov_deg=270&max_range_m=30".parse().unwrap();
+        assert_eq!(s.kind().name, "carmen");
+        assert_eq!(s.path(), Path::new("a.log"));
+        assert_eq!(s.get::<f64>("fov_deg", "").unwrap(), Some(270.0));
+        let err = |t: &str| t.parse::<DatasetSource>().unwrap_err().to_string();
+        assert_eq!(
+            err("nowhere"),
+            format!("unknown dataset \"nowhere\": expected {}", syntaxes())
+        );
+        assert_eq!(
+            err("csv"),
+            "dataset csv: missing the target, expected csv:DIR"
+        );
+        assert_eq!(
+            err("marina:x"),
+            "dataset marina takes nothing after `:` (got \"x\")"
+        );
+        assert_eq!(
+            err("rosbag:b?topic=/scan"),
+            "dataset rosbag: unknown option \"topic\": expected one of scan, reference, \
+             reference_kind, dt_s"
+        );
+        assert_eq!(
+            err("rosbag:b?scan=/a&scan=/b"),
+            "dataset rosbag: option scan given twice (\"/a\" and \"/b\")"
+        );
+        let bad = "carmen:a.log?fov_deg=wide"
+            .parse::<DatasetSource>()
+            .unwrap();
+        assert_eq!(
+            bad.get::<f64>("fov_deg", "an angle in degrees")
+                .unwrap_err()
+                .to_string(),
+            "dataset carmen: option fov_deg = \"wide\": an angle in degrees"
+        );
+        let kind = "carmen:a.log?reference_kind=ground_truth"
+            .parse::<DatasetSource>()
+            .unwrap();
+        assert_eq!(
+            kind.reference_kind(&[ReferenceKind::SlamCorrected, ReferenceKind::Odometry])
+                .unwrap_err()
+                .to_string(),
+            "dataset carmen: option reference_kind = \"ground_truth\": expected one of \
+             slam_corrected, odometry"
+        );
+    }
+
+    #[test]
+    fn flags_fill_options_the_string_left_out_and_clash_with_different_ones() {
+        let mut s: DatasetSource = "carmen:a.log?fov_deg=270".parse().unwrap();
+        s.set_from_flag("max_range_m", 30.0).unwrap();
+        s.set_from_flag("fov_deg", 270.0).unwrap();
+        s.set_from_flag("fov_deg", "270.0").unwrap();
+        s.set_from_flag("scans", 5).unwrap(); // not a carmen option: ignored
+        assert_eq!(s.raw("max_range_m"), Some("30"));
+        assert!(s.raw("scans").is_none());
+        assert!(matches!(
+            s.set_from_flag("fov_deg", 180.0),
+            Err(SourceError::Repeated {
+                option: "fov_deg",
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn help_lists_every_kind_and_option() {
+        let h = help();
+        for k in KINDS {
+            assert!(h.contains(&k.syntax()), "{h}");
+            for o in k.options {
+                assert!(h.contains(&format!("?{}=", o.name)), "{h}");
+            }
+        }
+    }
+}
