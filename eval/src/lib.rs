@@ -30,6 +30,7 @@ pub mod scaling;
 pub mod stats;
 pub mod status;
 pub mod sweep;
+pub mod trajectory_metrics;
 
 pub use outdir::OutputDir;
 pub use reference::ReferenceChecks;
