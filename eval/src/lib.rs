@@ -15,6 +15,8 @@ use indicatif::ProgressBar;
 pub mod basin;
 pub mod bound;
 pub mod compare;
+pub mod evo;
+pub mod evo_zip;
 pub mod gate;
 pub mod init;
 pub mod listing;
@@ -117,7 +119,8 @@ pub fn evaluate(
 }
 
 /// Writes `summary.json`, `pairs.csv`, `table.md`, `config.json`, one TUM trajectory per
-/// variant and (unless `plots` is false) the figures into `out`.
+/// variant, `reference.tum` and the evo result zips (`evo/`) where there is a reference, and
+/// (unless `plots` is false) the figures into `out`.
 pub fn write_outputs(
     out: &mut OutputDir,
     ds: &Dataset,
@@ -137,8 +140,32 @@ pub fn write_outputs(
             output::tum(report, i).as_bytes(),
         )?;
     }
+    if let Some(text) = output::reference_tum(report) {
+        out.write("reference.tum", text.as_bytes())?;
+    }
+    write_evo_results(out, ds, report)?;
     if plots {
         plots::write_all(out, ds, report)?;
+    }
+    Ok(())
+}
+
+/// The per-pair errors as evo result zips, `evo/<variant>_<error>.zip` (see [`evo::results`]).
+fn write_evo_results(
+    out: &mut OutputDir,
+    ds: &Dataset,
+    report: &RunReport,
+) -> Result<(), EvalError> {
+    let results = evo::results(report, |k| report::scan_time_s(ds, k));
+    if results.is_empty() {
+        return Ok(());
+    }
+    let dir = out.dir().join("evo");
+    std::fs::create_dir_all(&dir).map_err(|source| EvalError::Io { path: dir, source })?;
+    for (name, result) in &results {
+        if let Some(bytes) = evo_zip::result_zip(result)? {
+            out.write(&format!("evo/{name}"), &bytes)?;
+        }
     }
     Ok(())
 }
