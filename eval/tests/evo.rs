@@ -141,12 +141,15 @@ fn reference_tum_and_ate_come_from_the_written_files() {
     );
 }
 
+/// A per-pair error column of pairs.csv.
+type Column = fn(&eval::report::PairRecord) -> Option<f64>;
+
 #[test]
 fn evo_zips_read_back_as_the_pairs_errors_and_are_byte_identical_on_a_rerun() {
     let ds = dataset();
     let (dir, report) = run(&ds, "evo_zips");
     let (again, _) = run(&ds, "evo_zips_again");
-    let columns: [(&str, fn(&eval::report::PairRecord) -> Option<f64>); 4] = [
+    let columns: [(&str, Column); 4] = [
         ("sog", |r| r.sog_err_mps),
         ("dcog", |r| r.dcog_err_deg),
         ("translation", |r| r.trans_err_m),
