@@ -15,6 +15,7 @@ use indicatif::ProgressBar;
 pub mod basin;
 pub mod bound;
 pub mod compare;
+pub mod estimates;
 pub mod evo;
 pub mod evo_zip;
 pub mod gate;
