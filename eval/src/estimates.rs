@@ -209,7 +209,9 @@ pub fn per_scan_from_tum(
             .map(|(k, s)| (k, *s))
             .min_by(|a, b| (a.1 - t_s).abs().total_cmp(&(b.1 - t_s).abs()))
             .unwrap_or((0, f64::NAN));
-        if !((nearest_s - t_s).abs() <= MATCH_TOLERANCE_S) {
+        // NaN (a run without scans) matches nothing.
+        let matched = (nearest_s - t_s).abs() <= MATCH_TOLERANCE_S;
+        if !matched {
             return Err(EstimatesError::NoScanAt {
                 path: path.to_path_buf(),
                 line,
