@@ -49,6 +49,11 @@ pub struct EvoMetrics {
     pub rpe_segment_trans_m: Option<EvoStats>,
     /// The same, rotation angle, degrees.
     pub rpe_segment_rot_deg: Option<EvoStats>,
+    /// A reflection of the plane fits the estimate's positions onto the reference's better
+    /// than a rotation: evo's SE(3) alignment then mirrors the estimate and `evo_ape -a`
+    /// differs from `ate_*` here (see [`metrics::reflection_fits_better`]); RPE is unaffected.
+    #[serde(default)]
+    pub mirror_fits_better: bool,
 }
 
 /// The reference pose at each pose of a chained trajectory: the poses of the scans the chain
@@ -98,6 +103,10 @@ pub fn evo_metrics(
         .filter_map(|((_, e), r)| Some((*e, (*r)?)))
         .unzip();
     let (_, ate) = metrics::ate(&est, &refs)?;
+    let points = |p: &[Isometry2<f64>]| -> Vec<nalgebra::Point2<f64>> {
+        p.iter().map(|p| p.translation.vector.into()).collect()
+    };
+    let mirror_fits_better = metrics::reflection_fits_better(&points(&est), &points(&refs));
     let rigid = kind == ReferenceTum::RigidPose;
     let rpe = |pairs: &[(usize, usize)]| {
         let e = metrics::rpe(&est, &refs, pairs);
@@ -116,6 +125,7 @@ pub fn evo_metrics(
         rpe_segments: if rigid { segments.len() } else { 0 },
         rpe_segment_trans_m: rpe_segment_trans_m.filter(|_| rigid),
         rpe_segment_rot_deg: rpe_segment_rot_deg.filter(|_| rigid),
+        mirror_fits_better,
     })
 }
 

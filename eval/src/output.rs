@@ -263,6 +263,24 @@ fn trajectory_errors_md(out: &mut String, report: &RunReport) {
             rmse(e.rpe_segment_rot_deg, 3),
         );
     }
+    let mirrored: Vec<&str> = report
+        .variants
+        .iter()
+        .filter(|v| {
+            v.trajectory
+                .evo
+                .as_ref()
+                .is_some_and(|e| e.mirror_fits_better)
+        })
+        .map(|v| v.name.as_str())
+        .collect();
+    if !mirrored.is_empty() {
+        let _ = writeln!(
+            out,
+            "\nFor {}, a mirror image of the track fits the reference better than any rotation: `evo_ape -a` aligns in SE(3), where that mirror is a half turn about an in-plane axis, so its ATE differs from the SE(2) one here (RPE agrees).",
+            mirrored.join(", ")
+        );
+    }
 }
 
 /// The failures and flags of each variant, and how the flags fare against a rigid reference.

@@ -94,6 +94,32 @@ pub fn umeyama_se2(x: &[Point2<f64>], y: &[Point2<f64>]) -> Option<Isometry2<f64
     Some(Isometry2::from_parts(t.into(), rotation))
 }
 
+/// Whether a reflection of the plane fits `x` onto `y` better than every rotation (the
+/// rotation fit scores `hypot(Σ x'·y', Σ x'×y')`, the reflection fit the same with `x'`
+/// mirrored). evo aligns in SE(3): on planar poses a reflection of the plane is a proper 3D
+/// rotation (a half turn about an in-plane axis, z = 0 kept), so where one fits better
+/// `evo_ape -a` mirrors the estimate and its ATE is not the SE(2) one given here (a badly
+/// failed trajectory, e.g. HD_ICP from the identity on CARMEN aces).
+pub fn reflection_fits_better(x: &[Point2<f64>], y: &[Point2<f64>]) -> bool {
+    if x.len() != y.len() || x.is_empty() {
+        return false;
+    }
+    let n = x.len() as f64;
+    let mean = |p: &[Point2<f64>]| p.iter().map(|p| p.coords).sum::<Vector2<f64>>() / n;
+    let (mx, my) = (mean(x), mean(y));
+    let score = |mirror: f64| {
+        let (mut dot, mut cross) = (0.0, 0.0);
+        for (a, b) in x.iter().zip(y) {
+            let (a, b) = (a.coords - mx, b.coords - my);
+            let a = Vector2::new(a.x, mirror * a.y);
+            dot += a.dot(&b);
+            cross += a.x * b.y - a.y * b.x;
+        }
+        dot.hypot(cross)
+    };
+    score(-1.0) > score(1.0)
+}
+
 /// Per-pose or per-pair errors, translation (m) and rotation angle (degrees, `|θ|`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PoseErrors {
@@ -264,6 +290,19 @@ mod tests {
                     < 1e-9
             );
         }
+    }
+
+    #[test]
+    fn a_mirrored_track_is_fitted_better_by_a_reflection() {
+        let x: Vec<Point2<f64>> = [(0.0, 0.0), (4.0, 0.0), (4.0, 3.0), (1.0, 5.0)]
+            .iter()
+            .map(|&(a, b)| Point2::new(a, b))
+            .collect();
+        let turned = pose(3.0, -2.0, 37.0);
+        let rotated: Vec<Point2<f64>> = x.iter().map(|p| turned * p).collect();
+        let mirrored: Vec<Point2<f64>> = rotated.iter().map(|p| Point2::new(p.x, -p.y)).collect();
+        assert!(!reflection_fits_better(&x, &rotated));
+        assert!(reflection_fits_better(&x, &mirrored));
     }
 
     #[test]
