@@ -16,7 +16,6 @@
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry2, UnitComplex, Vector2};
-use sha2::{Digest, Sha256};
 
 use datasets::ScanPair;
 
@@ -106,15 +105,9 @@ pub fn load(
         path: path.to_path_buf(),
         source,
     })?;
-    let sha256 = Sha256::digest(&bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
+    let sha256 = datasets::FileProvenance::of(path.to_path_buf(), &bytes).sha256;
     let text = String::from_utf8_lossy(&bytes);
-    let first = text
-        .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'));
+    let first = content_lines(&text).next().map(|(_, l)| l);
     let per_pair = if first.is_some_and(|l| l.starts_with("source")) {
         per_pair_from_csv(&text, path, pairs)?
     } else {
@@ -160,6 +153,15 @@ fn number(
     }
 }
 
+/// The lines of `text` that are neither blank nor `#` comments, trimmed, with their 1-based
+/// line numbers.
+fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+}
+
 /// The TUM poses of `text`, one slot per scan (`None`: no pose for that scan).
 pub fn per_scan_from_tum(
     text: &str,
@@ -169,12 +171,7 @@ pub fn per_scan_from_tum(
     const FIELDS: [&str; 8] = ["timestamp", "x", "y", "z", "qx", "qy", "qz", "qw"];
     let mut poses = vec![None; scan_times_s.len()];
     let mut seen = false;
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let raw = raw.trim();
-        if raw.is_empty() || raw.starts_with('#') {
-            continue;
-        }
+    for (line, raw) in content_lines(text) {
         let cells: Vec<&str> = raw.split_whitespace().collect();
         if cells.len() != FIELDS.len() {
             return Err(EstimatesError::Bad {
@@ -250,12 +247,7 @@ pub fn per_pair_from_csv(
     const FIELDS: [&str; 5] = ["source", "reference", "tx_m", "ty_m", "theta_deg"];
     let mut out = vec![None; pairs.len()];
     let mut header = true;
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let raw = raw.trim();
-        if raw.is_empty() || raw.starts_with('#') {
-            continue;
-        }
+    for (line, raw) in content_lines(text) {
         let cells: Vec<&str> = raw.split(',').map(str::trim).collect();
         if header {
             if cells != FIELDS {
