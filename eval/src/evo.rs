@@ -103,10 +103,8 @@ pub fn evo_metrics(
         .filter_map(|((_, e), r)| Some((*e, (*r)?)))
         .unzip();
     let (_, ate) = metrics::ate(&est, &refs)?;
-    let points = |p: &[Isometry2<f64>]| -> Vec<nalgebra::Point2<f64>> {
-        p.iter().map(|p| p.translation.vector.into()).collect()
-    };
-    let mirror_fits_better = metrics::reflection_fits_better(&points(&est), &points(&refs));
+    let mirror_fits_better =
+        metrics::reflection_fits_better(&metrics::positions(&est), &metrics::positions(&refs));
     let rigid = kind == ReferenceTum::RigidPose;
     let rpe = |pairs: &[(usize, usize)]| {
         let e = metrics::rpe(&est, &refs, pairs);

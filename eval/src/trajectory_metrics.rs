@@ -131,6 +131,11 @@ pub struct PoseErrors {
     pub at: Vec<usize>,
 }
 
+/// The positions of `poses`.
+pub fn positions(poses: &[Isometry2<f64>]) -> Vec<Point2<f64>> {
+    poses.iter().map(|p| p.translation.vector.into()).collect()
+}
+
 /// The absolute trajectory error: `estimate` aligned to `reference` by [`umeyama_se2`] on
 /// the positions, then per pose `E_i = reference_i⁻¹ · (T · estimate_i)` (evo `APE`,
 /// `translation_part` and `rotation_angle_deg`). The poses are already associated (same
@@ -139,10 +144,7 @@ pub fn ate(
     estimate: &[Isometry2<f64>],
     reference: &[Isometry2<f64>],
 ) -> Option<(Isometry2<f64>, PoseErrors)> {
-    let points = |p: &[Isometry2<f64>]| -> Vec<Point2<f64>> {
-        p.iter().map(|p| p.translation.vector.into()).collect()
-    };
-    let align = umeyama_se2(&points(estimate), &points(reference))?;
+    let align = umeyama_se2(&positions(estimate), &positions(reference))?;
     let mut errors = PoseErrors::default();
     for (i, (e, r)) in estimate.iter().zip(reference).enumerate() {
         let err = r.inverse() * (align * e);
