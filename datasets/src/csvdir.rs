@@ -15,7 +15,6 @@ use std::path::{Path, PathBuf};
 use icp_core::{BearingSense, Scan, SensorModel};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::dataset::{
     nominal_dt_s, Dataset, FileProvenance, Pose2, Provenance, ReferenceKind, ReferencePose,
@@ -297,15 +296,7 @@ fn read_file(path: &Path) -> Result<Vec<u8>, DatasetError> {
 }
 
 fn provenance_of(path: PathBuf, bytes: &[u8]) -> FileProvenance {
-    let sha256 = Sha256::digest(bytes)
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect();
-    FileProvenance {
-        path,
-        sha256,
-        matches_pinned: None,
-    }
+    FileProvenance::of(path, bytes)
 }
 
 /// Loads a dataset directory.

@@ -254,6 +254,21 @@ pub struct FileProvenance {
     pub matches_pinned: Option<bool>,
 }
 
+impl FileProvenance {
+    /// The provenance of `bytes` read from `path`: their SHA-256, nothing pinned.
+    pub fn of(path: PathBuf, bytes: &[u8]) -> Self {
+        use sha2::{Digest, Sha256};
+        FileProvenance {
+            path,
+            sha256: Sha256::digest(bytes)
+                .iter()
+                .map(|b| format!("{b:02x}"))
+                .collect(),
+            matches_pinned: None,
+        }
+    }
+}
+
 /// Where a dataset came from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Provenance {

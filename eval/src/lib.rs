@@ -15,6 +15,9 @@ use indicatif::ProgressBar;
 pub mod basin;
 pub mod bound;
 pub mod compare;
+pub mod estimates;
+pub mod evo;
+pub mod evo_zip;
 pub mod gate;
 pub mod init;
 pub mod listing;
@@ -33,6 +36,7 @@ pub mod start_gate;
 pub mod stats;
 pub mod status;
 pub mod sweep;
+pub mod trajectory_metrics;
 
 pub use outdir::OutputDir;
 pub use reference::ReferenceChecks;
@@ -131,7 +135,8 @@ pub fn checked_pairs(
 }
 
 /// Writes `summary.json`, `pairs.csv`, `table.md`, `config.json`, one TUM trajectory per
-/// variant and (unless `plots` is false) the figures into `out`.
+/// variant, `reference.tum` and the evo result zips (`evo/`) where there is a reference, and
+/// (unless `plots` is false) the figures into `out`.
 pub fn write_outputs(
     out: &mut OutputDir,
     ds: &Dataset,
@@ -151,8 +156,32 @@ pub fn write_outputs(
             output::tum(report, i).as_bytes(),
         )?;
     }
+    if let Some(text) = output::reference_tum(report) {
+        out.write("reference.tum", text.as_bytes())?;
+    }
+    write_evo_results(out, ds, report)?;
     if plots {
         plots::write_all(out, ds, report)?;
+    }
+    Ok(())
+}
+
+/// The per-pair errors as evo result zips, `evo/<variant>_<error>.zip` (see [`evo::results`]).
+fn write_evo_results(
+    out: &mut OutputDir,
+    ds: &Dataset,
+    report: &RunReport,
+) -> Result<(), EvalError> {
+    let results = evo::results(report, |k| report::scan_time_s(ds, k));
+    if results.is_empty() {
+        return Ok(());
+    }
+    let dir = out.dir().join("evo");
+    std::fs::create_dir_all(&dir).map_err(|source| EvalError::Io { path: dir, source })?;
+    for (name, result) in &results {
+        if let Some(bytes) = evo_zip::result_zip(result)? {
+            out.write(&format!("evo/{name}"), &bytes)?;
+        }
     }
     Ok(())
 }

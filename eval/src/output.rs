@@ -56,17 +56,40 @@ pub fn pairs_csv(report: &RunReport) -> Result<Vec<u8>, EvalError> {
 pub fn tum(report: &RunReport, variant: usize) -> String {
     let mut s = String::new();
     for (t, pose) in &report.trajectories[variant] {
-        let half = 0.5 * pose.rotation.angle();
-        let _ = writeln!(
-            s,
-            "{t:.6} {:.6} {:.6} 0 0 0 {:.9} {:.9}",
-            pose.translation.x,
-            pose.translation.y,
-            half.sin(),
-            half.cos()
-        );
+        tum_line(&mut s, *t, pose);
     }
     s
+}
+
+/// `reference.tum`: the reference pose at each pose of the trajectories, with their
+/// timestamps (so evo associates them exactly); poses without a reference are left out.
+/// Identity orientations when the reference gives positions only
+/// (`reference.reference_tum` says which).
+pub fn reference_tum(report: &RunReport) -> Option<String> {
+    report.reference.reference_tum?;
+    let times = report.trajectories.first()?;
+    let mut s = String::new();
+    for ((t, _), pose) in times.iter().zip(&report.reference_trajectory) {
+        if let Some(pose) = pose {
+            tum_line(&mut s, *t, pose);
+        }
+    }
+    Some(s)
+}
+
+/// One TUM line. Positions and the quaternion are written with the shortest decimal that
+/// reads back as the same `f64`, so evo computes on exactly our numbers; the timestamp to the
+/// microsecond, identical in every file of a run.
+fn tum_line(s: &mut String, t: f64, pose: &nalgebra::Isometry2<f64>) {
+    let half = 0.5 * pose.rotation.angle();
+    let _ = writeln!(
+        s,
+        "{t:.6} {} {} 0 0 0 {} {}",
+        pose.translation.x,
+        pose.translation.y,
+        half.sin(),
+        half.cos()
+    );
 }
 
 fn cell(v: Option<f64>, digits: usize) -> String {
@@ -191,6 +214,71 @@ fn heading_md(out: &mut String, report: &RunReport) {
             v.name,
             cell(v.trajectory.heading_rms_error_deg, 2),
             cell(v.trajectory.heading_end_error_deg, 2)
+        );
+    }
+}
+
+/// ATE and RPE of the chained trajectories against `reference.tum`, as evo computes them.
+fn trajectory_errors_md(out: &mut String, report: &RunReport) {
+    let Some(kind) = report.reference.reference_tum else {
+        return;
+    };
+    let positions_only = kind == crate::evo::ReferenceTum::PositionsOnly;
+    let _ = writeln!(
+        out,
+        "\n## Trajectory errors against `reference.tum` (evo)\n\nThe chained trajectory (`trajectory_<variant>.tum`; a failed pair is bridged by the identity) against the reference at the same timestamps: ATE after a rigid SE(2) alignment (Umeyama, no scale; `evo_ape tum reference.tum trajectory_<variant>.tum -a`), RPE between consecutive poses (`evo_rpe`) and over segments of {} m of the estimate's path (`--delta {} --delta_unit m`).{}\n",
+        trimmed(crate::evo::RPE_SEGMENT_M, 3),
+        trimmed(crate::evo::RPE_SEGMENT_M, 3),
+        if positions_only {
+            " The reference gives positions only: `reference.tum` has identity orientations, so only the translation ATE is given."
+        } else {
+            ""
+        }
+    );
+    let _ = writeln!(
+        out,
+        "| method | poses | ATE RMSE (m) | ATE max (m) | ATE rot RMSE (°) | RPE RMSE (m) | RPE rot RMSE (°) | segments | segment RPE RMSE (m) | segment RPE rot RMSE (°) |"
+    );
+    let _ = writeln!(out, "| --- |{}", " ---: |".repeat(9));
+    for v in &report.variants {
+        let Some(e) = &v.trajectory.evo else {
+            let _ = writeln!(out, "| {} |{}", v.name, " – |".repeat(9));
+            continue;
+        };
+        let rmse = |s: Option<crate::trajectory_metrics::EvoStats>, digits| {
+            cell(s.map(|s| s.rmse), digits)
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.4} | {:.4} | {} | {} | {} | {} | {} | {} |",
+            v.name,
+            e.poses,
+            e.ate_trans_m.rmse,
+            e.ate_trans_m.max,
+            rmse(e.ate_rot_deg, 3),
+            rmse(e.rpe_trans_m, 4),
+            rmse(e.rpe_rot_deg, 3),
+            e.rpe_segments,
+            rmse(e.rpe_segment_trans_m, 4),
+            rmse(e.rpe_segment_rot_deg, 3),
+        );
+    }
+    let mirrored: Vec<&str> = report
+        .variants
+        .iter()
+        .filter(|v| {
+            v.trajectory
+                .evo
+                .as_ref()
+                .is_some_and(|e| e.mirror_fits_better)
+        })
+        .map(|v| v.name.as_str())
+        .collect();
+    if !mirrored.is_empty() {
+        let _ = writeln!(
+            out,
+            "\nFor {}, a mirror image of the track fits the reference better than any rotation: `evo_ape -a` aligns in SE(3), where that mirror is a half turn about an in-plane axis, so its ATE differs from the SE(2) one here (RPE agrees).",
+            mirrored.join(", ")
         );
     }
 }
@@ -475,6 +563,7 @@ pub fn table_md(report: &RunReport) -> String {
         }
     }
     heading_md(&mut out, report);
+    trajectory_errors_md(&mut out, report);
     failures_md(&mut out, report);
     for s in &d.skipped_pairs {
         let _ = writeln!(

@@ -9,6 +9,7 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 use crate::bound::{self, BoundSummary, OverBound, PairBound};
+use crate::evo::{EvoMetrics, ReferenceTum};
 use crate::init::{InitChain, InitMode};
 use crate::outcome::{self, FlagQuality};
 use crate::reference::{self, FlaggedStep, OffsetEstimate, ReferenceChecks};
@@ -177,6 +178,13 @@ pub struct TrajectoryStats {
     /// The dead-reckoned heading error at the last pair, degrees.
     #[serde(default)]
     pub heading_end_error_deg: Option<f64>,
+    /// RMS of the absolute trajectory error after an SE(2) alignment to `reference.tum`, m
+    /// (`evo_ape tum reference.tum trajectory_<variant>.tum -a`; `evo.ate_trans_m.rmse`).
+    #[serde(default)]
+    pub ate_rmse_m: Option<f64>,
+    /// ATE and RPE against `reference.tum` with evo's statistics, where there is a reference.
+    #[serde(default)]
+    pub evo: Option<EvoMetrics>,
 }
 
 /// A failed pair.
@@ -311,6 +319,9 @@ pub struct ReferenceInfo {
     pub flagged_pairs: Vec<FlaggedStep>,
     /// Pairs whose reference step is plausible.
     pub plausible_pairs: usize,
+    /// What `reference.tum` holds (`None`: no reference, no file).
+    #[serde(default)]
+    pub reference_tum: Option<ReferenceTum>,
 }
 
 /// The pairs every variant's statistics are taken over: those every variant registered
@@ -397,6 +408,10 @@ pub struct RunReport {
     /// Chained poses `t_world_scan` per variant, for TUM files and figures.
     #[serde(skip)]
     pub trajectories: Vec<Vec<(f64, Isometry2<f64>)>>,
+    /// The reference pose at each pose of the trajectories, where there is one (written to
+    /// `reference.tum` with the trajectories' timestamps).
+    #[serde(skip)]
+    pub reference_trajectory: Vec<Option<Isometry2<f64>>>,
 }
 
 /// What to evaluate.
@@ -608,6 +623,8 @@ pub fn build(
         .map(|i| runs.iter().all(|rs| rs[i].result.is_ok()))
         .collect();
     let rigid = ds.rigid_reference();
+    let (reference_trajectory, reference_tum) =
+        crate::evo::reference_trajectory(ds, pairs, applied);
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();
@@ -639,6 +656,12 @@ pub fn build(
             trajectories.last().expect("just pushed"),
             rigid,
         ));
+        if let (Some(kind), Some(summary)) = (reference_tum, summaries.last_mut()) {
+            let traj = trajectories.last().expect("just pushed");
+            let evo = crate::evo::evo_metrics(traj, &reference_trajectory, kind);
+            summary.trajectory.ate_rmse_m = evo.as_ref().map(|e| e.ate_trans_m.rmse);
+            summary.trajectory.evo = evo;
+        }
         records.extend(rows);
     }
     RunReport {
@@ -692,6 +715,7 @@ pub fn build(
             plausible_pairs: plausible.iter().filter(|&&p| p).count(),
             checks: setup.reference_checks,
             flagged_pairs: flagged,
+            reference_tum,
         },
         bound: bound::summarize(&bounds),
         population: Population {
@@ -725,6 +749,7 @@ pub fn build(
         }),
         pairs: records,
         trajectories,
+        reference_trajectory,
     }
 }
 
@@ -910,6 +935,11 @@ fn chained_heading_errors(
         .collect()
 }
 
+/// The time of scan `k` on the trajectories' clock: its timestamp, else `k` nominal steps.
+pub fn scan_time_s(ds: &Dataset, k: usize) -> f64 {
+    ds.scans[k].timestamp_s().unwrap_or(k as f64 * ds.dt_s)
+}
+
 /// Chains the registrations into scanner poses `t_world_scan`, starting at the reference pose
 /// of the first scan when it is a rigid pose (else at the origin). A failed pair is bridged by
 /// the identity and counted as a gap.
@@ -922,7 +952,7 @@ fn chain(ds: &Dataset, pairs: &[ScanPair], runs: &[PairRun]) -> Vec<(f64, Isomet
         .as_ref()
         .and_then(|r| r[first.source].scan_pose())
         .unwrap_or_else(Isometry2::identity);
-    let time = |k: usize| ds.scans[k].timestamp_s().unwrap_or(k as f64 * ds.dt_s);
+    let time = |k: usize| scan_time_s(ds, k);
     let mut poses = vec![(time(first.source), start)];
     let mut pose = start;
     for (pair, run) in pairs.iter().zip(runs) {
@@ -982,6 +1012,8 @@ fn trajectory_stats(
         note,
         heading_rms_error_deg: None,
         heading_end_error_deg: None,
+        ate_rmse_m: None,
+        evo: None,
     }
 }
 

@@ -1,0 +1,306 @@
+//! External estimates (issue 15, "external estimators on the same pairs"): another tool's
+//! motions read from a file and turned into one `t_ref_src` per pair of the run, so that they
+//! can be evaluated like a built-in variant. Two formats, told apart by the first line:
+//!
+//! - TUM poses, `timestamp x y z qx qy qz qw` per line (`#` comments allowed), one pose per
+//!   scan: each pose belongs to the scan whose time (its timestamp, else `k · dt_s`, the clock
+//!   of our own TUM files) is within [`MATCH_TOLERANCE_S`]; a pose near no scan is an error
+//!   (the file is of another run). A pair's motion is `t_ref_src = pose_ref⁻¹ · pose_src`, and
+//!   a pair with a scan the file has no pose for has no estimate (a failure of the estimator).
+//! - A CSV of per-pair motions with the header `source,reference,tx_m,ty_m,theta_deg`
+//!   (`t_ref_src`, as in pairs.csv): a pair without a row has no estimate.
+//!
+//! Not wired into `icp-eval run`/`compare` yet: this is the reading and matching, with typed
+//! errors naming the file, line and field.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Isometry2, UnitComplex, Vector2};
+
+use datasets::ScanPair;
+
+/// A TUM pose belongs to a scan when their times differ by at most this, s: far above the
+/// rounding of TUM files (1 µs at 6 decimals), far below any scan spacing (25 ms at 40 Hz).
+pub const MATCH_TOLERANCE_S: f64 = 1e-3;
+
+/// The CSV header of per-pair motions.
+pub const PAIR_CSV_HEADER: &str = "source,reference,tx_m,ty_m,theta_deg";
+
+/// A unit quaternion's norm may be off by this much (rounded text) before it is refused.
+const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+
+/// Why an estimates file cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum EstimatesError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A line or field is not what the format says.
+    #[error("{path}, line {line}, {field}: {why}")]
+    Bad {
+        path: PathBuf,
+        line: usize,
+        field: &'static str,
+        why: String,
+    },
+    /// The file holds no estimate at all.
+    #[error("{path}: no estimates in the file")]
+    Empty { path: PathBuf },
+    /// A TUM pose is near no scan of the run.
+    #[error("{path}, line {line}: the pose at t = {t_s} s is within {tol_s} s of no scan (nearest: {nearest_s} s); is the file of this run?")]
+    NoScanAt {
+        path: PathBuf,
+        line: usize,
+        t_s: f64,
+        tol_s: f64,
+        nearest_s: f64,
+    },
+    /// Two estimates for the same scan or pair.
+    #[error("{path}, line {line}: a second estimate for {what}")]
+    Duplicate {
+        path: PathBuf,
+        line: usize,
+        what: String,
+    },
+    /// The argument is not `NAME=FILE`.
+    #[error("--estimates {0:?}: expected NAME=FILE")]
+    Spec(String),
+}
+
+/// One external estimator's motions on the pairs of a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExternalEstimates {
+    /// Its name (the variant name in the reports).
+    pub name: String,
+    /// The file.
+    pub path: PathBuf,
+    /// The file's SHA-256, hex.
+    pub sha256: String,
+    /// Per pair of the run, `t_ref_src`, or `None` where the file has none.
+    pub per_pair: Vec<Option<Isometry2<f64>>>,
+}
+
+/// `NAME=FILE`.
+pub fn parse_spec(spec: &str) -> Result<(String, PathBuf), EstimatesError> {
+    match spec.split_once('=') {
+        Some((name, file)) if !name.is_empty() && !file.is_empty() => {
+            Ok((name.to_owned(), PathBuf::from(file)))
+        }
+        _ => Err(EstimatesError::Spec(spec.to_owned())),
+    }
+}
+
+/// Reads `path` and gives the motion of each of `pairs`; `scan_times_s[k]` is scan k's time.
+pub fn load(
+    name: &str,
+    path: &Path,
+    scan_times_s: &[f64],
+    pairs: &[ScanPair],
+) -> Result<ExternalEstimates, EstimatesError> {
+    let bytes = std::fs::read(path).map_err(|source| EstimatesError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let sha256 = datasets::FileProvenance::of(path.to_path_buf(), &bytes).sha256;
+    let text = String::from_utf8_lossy(&bytes);
+    let first = content_lines(&text).next().map(|(_, l)| l);
+    let per_pair = if first.is_some_and(|l| l.starts_with("source")) {
+        per_pair_from_csv(&text, path, pairs)?
+    } else {
+        let poses = per_scan_from_tum(&text, path, scan_times_s)?;
+        pairs
+            .iter()
+            .map(|p| Some(poses[p.reference]?.inverse() * poses[p.source]?))
+            .collect()
+    };
+    if per_pair.iter().all(Option::is_none) {
+        return Err(EstimatesError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(ExternalEstimates {
+        name: name.to_owned(),
+        path: path.to_path_buf(),
+        sha256,
+        per_pair,
+    })
+}
+
+fn number(
+    path: &Path,
+    line: usize,
+    field: &'static str,
+    text: &str,
+) -> Result<f64, EstimatesError> {
+    let bad = |why: String| EstimatesError::Bad {
+        path: path.to_path_buf(),
+        line,
+        field,
+        why,
+    };
+    let v: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| bad(format!("{text:?} is not a number")))?;
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(bad(format!("{text:?} is not finite")))
+    }
+}
+
+/// The lines of `text` that are neither blank nor `#` comments, trimmed, with their 1-based
+/// line numbers.
+fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim()))
+        .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
+}
+
+/// The TUM poses of `text`, one slot per scan (`None`: no pose for that scan).
+pub fn per_scan_from_tum(
+    text: &str,
+    path: &Path,
+    scan_times_s: &[f64],
+) -> Result<Vec<Option<Isometry2<f64>>>, EstimatesError> {
+    const FIELDS: [&str; 8] = ["timestamp", "x", "y", "z", "qx", "qy", "qz", "qw"];
+    let mut poses = vec![None; scan_times_s.len()];
+    let mut seen = false;
+    for (line, raw) in content_lines(text) {
+        let cells: Vec<&str> = raw.split_whitespace().collect();
+        if cells.len() != FIELDS.len() {
+            return Err(EstimatesError::Bad {
+                path: path.to_path_buf(),
+                line,
+                field: "line",
+                why: format!(
+                    "{} fields, a TUM line has 8 (timestamp x y z qx qy qz qw)",
+                    cells.len()
+                ),
+            });
+        }
+        let mut v = [0.0; 8];
+        for (k, cell) in cells.iter().enumerate() {
+            v[k] = number(path, line, FIELDS[k], cell)?;
+        }
+        let [t_s, x, y, _z, qx, qy, qz, qw] = v;
+        let norm = (qx * qx + qy * qy + qz * qz + qw * qw).sqrt();
+        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+            return Err(EstimatesError::Bad {
+                path: path.to_path_buf(),
+                line,
+                field: "qx qy qz qw",
+                why: format!("not a unit quaternion (norm {norm})"),
+            });
+        }
+        // The yaw of the rotation (a planar estimator's roll and pitch are zero).
+        let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
+        let (k, nearest_s) = scan_times_s
+            .iter()
+            .enumerate()
+            .map(|(k, s)| (k, *s))
+            .min_by(|a, b| (a.1 - t_s).abs().total_cmp(&(b.1 - t_s).abs()))
+            .unwrap_or((0, f64::NAN));
+        // NaN (a run without scans) matches nothing.
+        let matched = (nearest_s - t_s).abs() <= MATCH_TOLERANCE_S;
+        if !matched {
+            return Err(EstimatesError::NoScanAt {
+                path: path.to_path_buf(),
+                line,
+                t_s,
+                tol_s: MATCH_TOLERANCE_S,
+                nearest_s,
+            });
+        }
+        if poses[k].is_some() {
+            return Err(EstimatesError::Duplicate {
+                path: path.to_path_buf(),
+                line,
+                what: format!("scan {k} (t = {nearest_s} s)"),
+            });
+        }
+        poses[k] = Some(Isometry2::from_parts(
+            Vector2::new(x, y).into(),
+            UnitComplex::new(yaw),
+        ));
+        seen = true;
+    }
+    if !seen {
+        return Err(EstimatesError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(poses)
+}
+
+/// The per-pair motions of a CSV with the header [`PAIR_CSV_HEADER`], one slot per pair.
+pub fn per_pair_from_csv(
+    text: &str,
+    path: &Path,
+    pairs: &[ScanPair],
+) -> Result<Vec<Option<Isometry2<f64>>>, EstimatesError> {
+    const FIELDS: [&str; 5] = ["source", "reference", "tx_m", "ty_m", "theta_deg"];
+    let mut out = vec![None; pairs.len()];
+    let mut header = true;
+    for (line, raw) in content_lines(text) {
+        let cells: Vec<&str> = raw.split(',').map(str::trim).collect();
+        if header {
+            if cells != FIELDS {
+                return Err(EstimatesError::Bad {
+                    path: path.to_path_buf(),
+                    line,
+                    field: "header",
+                    why: format!("{raw:?}, expected {PAIR_CSV_HEADER:?}"),
+                });
+            }
+            header = false;
+            continue;
+        }
+        if cells.len() != FIELDS.len() {
+            return Err(EstimatesError::Bad {
+                path: path.to_path_buf(),
+                line,
+                field: "line",
+                why: format!("{} cells, expected 5 ({PAIR_CSV_HEADER})", cells.len()),
+            });
+        }
+        let index = |k: usize| -> Result<usize, EstimatesError> {
+            cells[k].parse().map_err(|_| EstimatesError::Bad {
+                path: path.to_path_buf(),
+                line,
+                field: FIELDS[k],
+                why: format!("{:?} is not a scan index", cells[k]),
+            })
+        };
+        let pair = ScanPair {
+            source: index(0)?,
+            reference: index(1)?,
+        };
+        let tx = number(path, line, FIELDS[2], cells[2])?;
+        let ty = number(path, line, FIELDS[3], cells[3])?;
+        let theta = number(path, line, FIELDS[4], cells[4])?;
+        // A row for a pair the run does not register is not an error (another run's pairs,
+        // a subset by --scans): it is left unused.
+        if let Some(slot) = pairs.iter().position(|p| *p == pair) {
+            if out[slot].is_some() {
+                return Err(EstimatesError::Duplicate {
+                    path: path.to_path_buf(),
+                    line,
+                    what: format!("pair {} → {}", pair.source, pair.reference),
+                });
+            }
+            out[slot] = Some(Isometry2::new(Vector2::new(tx, ty), theta.to_radians()));
+        }
+    }
+    if header {
+        return Err(EstimatesError::Empty {
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(out)
+}
