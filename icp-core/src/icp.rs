@@ -328,6 +328,30 @@ impl Registrar for Icp {
             }
             index.match_all(moved, pairs); // Alg. 1 step 2
         };
+        // The closed-form covariance, once, with the weights of the final pairs (the buffers
+        // are sized: nothing is allocated).
+        let covariance = {
+            let set = PairSet {
+                pairs,
+                src,
+                dst,
+                src_moved: moved,
+                dst_points: dst_pts,
+                src_surfaces,
+                dst_surfaces,
+                t_ref_src,
+            };
+            self.weighting.weigh_all(&set, weights);
+            for (w, r) in weights.iter_mut().zip(residuals.iter()) {
+                if r.is_nan() {
+                    *w = 0.0;
+                }
+            }
+            self.robust.reweight(dists, residuals, weights, scratch);
+            self.metric
+                .sandwich(&set, weights, &self.sensor)
+                .map(|sums| sums.covariance(&t_ref_src))
+        };
         Ok(Registration {
             t_ref_src,
             iterations,
@@ -338,6 +362,7 @@ impl Registrar for Icp {
             mean_residual_m: mean,
             conditioning: conditioning(moved, dst_surfaces, pairs),
             overlap: overlap(moved, dst_pts, pairs),
+            covariance,
         })
     }
 }

@@ -47,6 +47,7 @@
 
 pub mod bound;
 mod cells;
+pub mod covariance;
 pub mod error;
 pub mod global;
 pub mod icp;
@@ -67,6 +68,7 @@ pub mod termination;
 pub mod variants;
 pub mod weighting;
 
+pub use covariance::Covariance;
 pub use error::{ConfigError, IcpError};
 
 /// The README's Rust examples, compiled and run as doctests so the README stays true.

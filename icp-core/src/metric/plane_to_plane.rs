@@ -5,7 +5,11 @@ use nalgebra::{Isometry2, Matrix2, Matrix2x3, Vector2};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, weighted, within, Anchor, Ends, Metric, NormalEquations};
+use super::{
+    center, check_gate, difference_noise, e_jacobian, turn, weighted, within, Anchor, Ends,
+    Metric, NormalEquations,
+};
+use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 use crate::SensorModel;
@@ -134,5 +138,22 @@ impl Metric for PlaneToPlane {
             }
         }
         cost
+    }
+
+    fn sandwich(
+        &self,
+        set: &PairSet<'_>,
+        weights: &[f64],
+        sensor: &SensorModel,
+    ) -> Option<Sandwich> {
+        let mut sums = Sandwich::about(center(set));
+        for (i, w) in weighted(weights) {
+            let Some((ends, omega)) = self.terms(set, i) else {
+                continue;
+            };
+            let jac = e_jacobian(&ends.source, &sums.center);
+            sums.add(&ends.source, &jac, &omega, &difference_noise(set, i, sensor), w);
+        }
+        Some(sums)
     }
 }

@@ -5,9 +5,14 @@ use nalgebra::{Isometry2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, weighted, within, Anchor, Metric, NormalEquations};
+use super::{
+    center, check_gate, difference_noise, e_jacobian, turn, weighted, within, Anchor, Metric,
+    NormalEquations,
+};
+use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
+use crate::SensorModel;
 
 /// `r = nᵀ (R p + T − q)`, `Ω = n nᵀ`, with `n` the reference surface normal at the matched
 /// return, and `p`, `q` the pair's ends: by default the means of the two returns'
@@ -83,5 +88,24 @@ impl Metric for PointToLine {
             }
         }
         cost
+    }
+
+    fn sandwich(
+        &self,
+        set: &PairSet<'_>,
+        weights: &[f64],
+        sensor: &SensorModel,
+    ) -> Option<Sandwich> {
+        let mut sums = Sandwich::about(center(set));
+        for (i, w) in weighted(weights) {
+            let Some(ends) = self.anchor.ends(set, i) else {
+                continue;
+            };
+            let n = ends.surface.normal;
+            let omega = n * n.transpose();
+            let jac = e_jacobian(&ends.source, &sums.center);
+            sums.add(&ends.source, &jac, &omega, &difference_noise(set, i, sensor), w);
+        }
+        Some(sums)
     }
 }
