@@ -76,7 +76,7 @@ pub use error::{ConfigError, IcpError};
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;
 pub use icp::{Icp, Workspace};
-pub use motion::{BearingSense, MovementParams};
+pub use motion::{BearingSense, MovementParams, MovementSigmas};
 pub use quality::Conditioning;
 pub use registration::{Prepared, Registrar, Registration};
 pub use scan::Scan;
