@@ -42,6 +42,7 @@ fn main() -> anyhow::Result<()> {
         init: Default::default(),
         global: Default::default(),
         global_check: Default::default(),
+        covariance: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

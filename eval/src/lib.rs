@@ -15,6 +15,7 @@ use indicatif::ProgressBar;
 pub mod basin;
 pub mod bound;
 pub mod compare;
+pub mod consistency;
 pub mod gate;
 pub mod init;
 pub mod listing;

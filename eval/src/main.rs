@@ -10,6 +10,7 @@ use datasets::{marina, Dataset};
 use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
+use eval::consistency::CovarianceMode;
 use eval::init::{InitChain, MODES};
 use eval::report::RunReport;
 use eval::{
@@ -194,6 +195,10 @@ struct RunArgs {
     /// ±180°).
     #[arg(long, value_enum, default_value_t = GlobalRotation::Histogram)]
     global_rotation: GlobalRotation,
+    /// Where each registration's covariance comes from (help generated from the registered
+    /// modes).
+    #[arg(long, default_value = "closed-form")]
+    covariance: CovarianceMode,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -360,6 +365,7 @@ fn cli_command() -> clap::Command {
         c.mut_arg("variants", |a| a.help(variants.clone()))
             .mut_arg("matcher", |a| a.help(matchers.clone()))
             .mut_arg("init", |a| a.help(init.clone()))
+            .mut_arg("covariance", |a| a.help(CovarianceMode::help()))
     };
     <Cli as clap::CommandFactory>::command()
         .mut_subcommand("run", patch)
@@ -556,7 +562,8 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
     )?
     .with_reference_checks(args.reference_checks)
     .with_init(args.init.clone())
-    .with_global(args.global()?, args.global_check);
+    .with_global(args.global()?, args.global_check)
+    .with_covariance(args.covariance);
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -569,7 +576,8 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let setup = EvalSetup::from_specs(&variants, run.reference_offset)?
         .with_reference_checks(run.reference_checks)
         .with_init(run.init.clone())
-        .with_global(run.global()?, run.global_check);
+        .with_global(run.global()?, run.global_check)
+        .with_covariance(run.covariance);
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let options = CompareOptions {
         resamples: args.bootstrap,
