@@ -27,6 +27,7 @@ pub mod published;
 pub mod reference;
 pub mod report;
 pub mod runner;
+pub mod sampled;
 pub mod scaling;
 pub mod stats;
 pub mod status;
@@ -111,7 +112,10 @@ pub fn evaluate(
         global: &setup.global,
         check: setup.global_check == GlobalChecks::On,
     };
-    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    let mut runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    if setup.covariance == consistency::CovarianceMode::Sampled {
+        sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
+    }
     progress.finish_and_clear();
     Ok(report::build(ds, &pairs, skipped, setup, &runs))
 }

@@ -642,7 +642,12 @@ pub fn build(
             last.consistency = consistency::summarize(
                 &rows,
                 setup.covariance,
-                consistency::reference_noise(&rows),
+                // Ground truth carries no noise of its own to estimate.
+                if rigid {
+                    None
+                } else {
+                    consistency::reference_noise(&rows)
+                },
             );
         }
         records.extend(rows);
