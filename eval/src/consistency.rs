@@ -534,7 +534,10 @@ mod tests {
             .map(|i| Some(if i % 2 == 0 { 1.1 } else { 0.9 }))
             .collect();
         let s = successive_noise(&x).unwrap();
-        assert!((s - 1.4826 * 0.2 / std::f64::consts::SQRT_2).abs() < 1e-9, "{s}");
+        assert!(
+            (s - 1.4826 * 0.2 / std::f64::consts::SQRT_2).abs() < 1e-9,
+            "{s}"
+        );
         assert_eq!(successive_noise(&[Some(1.0), None, Some(2.0)]), None);
         assert!("bogus".parse::<CovarianceMode>().is_err());
         for (mode, name, _) in MODES {

@@ -9,8 +9,8 @@ use datasets::synthetic::{self, Scenario};
 use datasets::{marina, Dataset};
 use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
-use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::consistency::CovarianceMode;
+use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
 use eval::report::RunReport;
 use eval::{

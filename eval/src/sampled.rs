@@ -66,7 +66,10 @@ pub fn sampled_covariance(
     let params = reg.surface_params();
     let mut errors: Vec<Vector3<f64>> = Vec::with_capacity(SAMPLES);
     for _ in 0..SAMPLES {
-        let (s, r) = (perturbed(source, sensor, rng), perturbed(reference, sensor, rng));
+        let (s, r) = (
+            perturbed(source, sensor, rng),
+            perturbed(reference, sensor, rng),
+        );
         // A start uniform in the disc of START_BALL_M and ±START_BALL_RAD.
         let (radius, angle, turn): (f64, f64, f64) = (
             START_BALL_M * rng.random::<f64>().sqrt(),

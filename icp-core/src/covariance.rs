@@ -132,6 +132,24 @@ impl Sandwich {
         self.count += 1;
     }
 
+    /// Adds a pair of weight `w` with a scalar residual (point-to-line: `Ω = n nᵀ`), whose
+    /// moved source end is `moved`, gradient `j = Eᵀn` and residual variance `variance_m2`:
+    /// the same sums as [`Sandwich::add`] with `Ω = n nᵀ`, `nᵀ Σ_e n = variance_m2`.
+    #[inline]
+    pub(crate) fn add_scalar(
+        &mut self,
+        moved: &Point2<f64>,
+        j: &Vector3<f64>,
+        variance_m2: f64,
+        w: f64,
+    ) {
+        let jj = j * j.transpose();
+        self.hessian += jj * w;
+        self.middle += jj * (w * w * variance_m2);
+        self.spread_m2 += (moved - self.center).norm_squared();
+        self.count += 1;
+    }
+
     /// The RMS distance of the added moved source ends from the centre, m (0 without pairs).
     pub fn lever_m(&self) -> f64 {
         if self.count == 0 {

@@ -328,8 +328,9 @@ impl Registrar for Icp {
             }
             index.match_all(moved, pairs); // Alg. 1 step 2
         };
-        // The closed-form covariance, once, with the weights of the final pairs (the buffers
-        // are sized: nothing is allocated).
+        // The closed-form covariance, once, with the weights of the final iteration (pair i
+        // is source point i's in every iteration), those of pairs now unusable zeroed; made
+        // afresh when no step was taken. The buffers are sized: nothing is allocated.
         let covariance = {
             let set = PairSet {
                 pairs,
@@ -341,13 +342,18 @@ impl Registrar for Icp {
                 dst_surfaces,
                 t_ref_src,
             };
-            self.weighting.weigh_all(&set, weights);
+            let fresh = iterations == 0 || weights.len() != residuals.len();
+            if fresh {
+                self.weighting.weigh_all(&set, weights);
+            }
             for (w, r) in weights.iter_mut().zip(residuals.iter()) {
                 if r.is_nan() {
                     *w = 0.0;
                 }
             }
-            self.robust.reweight(dists, residuals, weights, scratch);
+            if fresh {
+                self.robust.reweight(dists, residuals, weights, scratch);
+            }
             self.metric
                 .sandwich(&set, weights, &self.sensor)
                 .map(|sums| sums.covariance(&t_ref_src))

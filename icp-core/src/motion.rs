@@ -217,8 +217,8 @@ mod tests {
                 t.translation.vector + Vector2::new(d.x, d.y),
                 t.rotation.angle() + d.z,
             );
-            let m = MovementParams::from_registration(&g, dt, 10.0, BearingSense::Clockwise)
-                .unwrap();
+            let m =
+                MovementParams::from_registration(&g, dt, 10.0, BearingSense::Clockwise).unwrap();
             sog.push(m.sog_mps);
             dcog.push(m.dcog_deg);
             rot.push(m.rot_dps);
@@ -235,7 +235,10 @@ mod tests {
             ("dcog", sd(&dcog), sig.dcog_deg),
             ("rot", sd(&rot), sig.rot_dps),
         ] {
-            assert!((mc / first - 1.0).abs() < 3.0 * se, "{what}: {mc} vs {first}");
+            assert!(
+                (mc / first - 1.0).abs() < 3.0 * se,
+                "{what}: {mc} vs {first}"
+            );
         }
         // Bad input: a NaN covariance or time step is an error, not a NaN sigma.
         let mut bad = cov;

@@ -114,7 +114,10 @@ fn closed_form_agrees_with_a_monte_carlo_of_the_registration() {
     // part of e that Ω no longer removes. Guarded as the known gap, not as agreement.
     for (name, k, ratio, se) in ratios {
         if name == "HD_PL_ICP" {
-            assert!((ratio - 1.0).abs() < 3.0 * se, "{name} [{k}]: {ratio} ± {se}");
+            assert!(
+                (ratio - 1.0).abs() < 3.0 * se,
+                "{name} [{k}]: {ratio} ± {se}"
+            );
         } else {
             assert!(
                 ratio > 1.0 - 3.0 * se && ratio < 1.6 + 3.0 * se,

@@ -20,13 +20,14 @@
 //! end alone at its mean, 1.07 with both; PL_ICP 1.53, 1.38, 1.32. On the marina data (ΔCOG
 //! median |e|, plausible pairs) GICP 0.070° → 0.068°, HD_GICP 0.067° → 0.065°.
 
-use nalgebra::{Isometry2, Matrix2, Matrix2x3, Matrix3, Point2, Vector3};
+use nalgebra::{Isometry2, Matrix2, Matrix2x3, Matrix3, Point2, Vector2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
 use crate::registry::{Family, ParamError, StageSpec};
-use crate::covariance::Sandwich;
+use crate::scan::Return;
 use crate::surface::SurfacePoint;
 use crate::SensorModel;
 
@@ -143,6 +144,24 @@ pub trait Metric: Send + Sync {
 fn e_jacobian(m: &Point2<f64>, c: &Point2<f64>) -> Matrix2x3<f64> {
     let (tx, ty) = turn(m, c);
     Matrix2x3::new(1.0, 0.0, tx, 0.0, 1.0, ty)
+}
+
+/// The variance of pair `i`'s residual along the unit normal `n` (frame k+1) from its two
+/// returns' sensor noise: eq. 9 along `n` for each, `nᵀ(R C_p Rᵀ + C_q)n`, m², without
+/// forming the matrices.
+#[inline]
+fn normal_noise(set: &PairSet<'_>, i: usize, n: &Vector2<f64>, sensor: &SensorModel) -> f64 {
+    let c = set.pairs[i];
+    let n_src = set.t_ref_src.rotation.inverse() * n;
+    let along = |p: &Return, n: &Vector2<f64>| {
+        let cos2 = if p.range_m > 0.0 {
+            (n.dot(&p.point.coords) / p.range_m).powi(2)
+        } else {
+            1.0 // at the sensor: σ_r(0) every way, no bearing term
+        };
+        sensor.directional_variance_cos2(p.range_m, cos2.min(1.0))
+    };
+    along(&set.src[c.src], &n_src) + along(&set.dst[c.dst], n)
 }
 
 /// The covariance of pair `i`'s difference `e = R p + T − q` from its two returns' sensor

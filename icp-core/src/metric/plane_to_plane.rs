@@ -6,8 +6,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    center, check_gate, difference_noise, e_jacobian, turn, weighted, within, Anchor, Ends,
-    Metric, NormalEquations,
+    center, check_gate, difference_noise, e_jacobian, turn, weighted, within, Anchor, Ends, Metric,
+    NormalEquations,
 };
 use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
@@ -152,7 +152,13 @@ impl Metric for PlaneToPlane {
                 continue;
             };
             let jac = e_jacobian(&ends.source, &sums.center);
-            sums.add(&ends.source, &jac, &omega, &difference_noise(set, i, sensor), w);
+            sums.add(
+                &ends.source,
+                &jac,
+                &omega,
+                &difference_noise(set, i, sensor),
+                w,
+            );
         }
         Some(sums)
     }

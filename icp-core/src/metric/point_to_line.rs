@@ -6,8 +6,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    center, check_gate, difference_noise, e_jacobian, turn, weighted, within, Anchor, Metric,
-    NormalEquations,
+    center, check_gate, normal_noise, turn, weighted, within, Anchor, Metric, NormalEquations,
 };
 use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
@@ -102,9 +101,9 @@ impl Metric for PointToLine {
                 continue;
             };
             let n = ends.surface.normal;
-            let omega = n * n.transpose();
-            let jac = e_jacobian(&ends.source, &sums.center);
-            sums.add(&ends.source, &jac, &omega, &difference_noise(set, i, sensor), w);
+            let (tx, ty) = turn(&ends.source, &sums.center);
+            let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
+            sums.add_scalar(&ends.source, &j, normal_noise(set, i, &n, sensor), w);
         }
         Some(sums)
     }
