@@ -607,6 +607,7 @@ pub fn build(
     for (vi, variant) in setup.variants.iter().enumerate() {
         let mut rows = Vec::with_capacity(pairs.len());
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
+        let inflation = consistency::closed_form_inflation(&variant.spec().metric);
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
                 variant.name(),
@@ -626,6 +627,7 @@ pub fn build(
                 run.result.as_ref().ok(),
                 refs[i].and_then(|r| r.t_ref_src),
                 setup.covariance,
+                inflation,
             );
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
@@ -642,6 +644,7 @@ pub fn build(
             last.consistency = consistency::summarize(
                 &rows,
                 setup.covariance,
+                inflation,
                 // Ground truth carries no noise of its own to estimate.
                 if rigid {
                     None
