@@ -322,6 +322,11 @@ fn csv_non_finite_odometry() {
 
 /// The first line the harness prints on stderr for `run --sensor <text>`, and its exit code.
 fn run_with_sensor(name: &str, text: &str) -> (Option<i32>, String) {
+    run_with(name, "--sensor", text)
+}
+
+/// The first line the harness prints on stderr for `run <flag> <text>`, and its exit code.
+fn run_with(name: &str, flag: &str, text: &str) -> (Option<i32>, String) {
     let out = common::scratch_dir(name);
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
         .args([
@@ -332,7 +337,7 @@ fn run_with_sensor(name: &str, text: &str) -> (Option<i32>, String) {
             "3",
             "--quiet",
             "--no-plots",
-            "--sensor",
+            flag,
             text,
             "--out",
         ])
@@ -389,6 +394,21 @@ fn sensor_with_garbage() {
         .1,
         "error: invalid value 'sigma_r_per_m=0.01,sigma_r_per_m=0.02' for '--sensor <SENSOR>': \
          sigma_r_per_m is given twice"
+    );
+}
+
+// ---- The covariance of a run (`--covariance`) --------------------------------------------------
+
+#[test]
+fn covariance_with_an_unknown_mode() {
+    assert_eq!(
+        run_with("matrix_covariance_mode", "--covariance", "closed_form"),
+        (
+            Some(2),
+            "error: invalid value 'closed_form' for '--covariance <COVARIANCE>': --covariance \
+             \"closed_form\": unknown mode (known: closed-form, sampled, off)"
+                .to_owned()
+        )
     );
 }
 
