@@ -143,8 +143,8 @@ pub const SENSOR_GICP_INFLATION: f64 = 1.3;
 /// [`SENSOR_GICP_INFLATION`] for `plane_to_plane` with `surface_and_sensor` covariances, 1
 /// otherwise.
 pub fn closed_form_inflation(metric: &StageSpec) -> f64 {
-    let sensor = metric.params.get("covariance").and_then(|v| v.as_str())
-        == Some("surface_and_sensor");
+    let sensor =
+        metric.params.get("covariance").and_then(|v| v.as_str()) == Some("surface_and_sensor");
     if metric.kind == "plane_to_plane" && sensor {
         SENSOR_GICP_INFLATION
     } else {
@@ -416,7 +416,8 @@ pub fn fill(
     if mode == CovarianceMode::Off {
         return;
     }
-    let Some((reg, cov)) = reg.and_then(|r| Some((r, reported(&r.covariance?, mode, inflation)))) else {
+    let Some((reg, cov)) = reg.and_then(|r| Some((r, reported(&r.covariance?, mode, inflation))))
+    else {
         return;
     };
     let c = match cov {

@@ -68,8 +68,10 @@ fn sampled_is_the_same_whatever_the_thread_count_and_the_closed_form_skips_point
         assert_eq!(r.cov_xx_m2.is_some(), has, "{}", r.variant);
     }
     let off = run(2, CovarianceMode::Off);
-    assert!(off.pairs.iter().all(|r| r.cov_status.is_empty()
-        && covariance_cells(r).iter().all(Option::is_none)));
+    assert!(off
+        .pairs
+        .iter()
+        .all(|r| r.cov_status.is_empty() && covariance_cells(r).iter().all(Option::is_none)));
     assert!(off.variants.iter().all(|v| v.consistency.is_none()));
     for report in [&one, &closed] {
         let csv = String::from_utf8(eval::output::pairs_csv(report).unwrap()).unwrap();
