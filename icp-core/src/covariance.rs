@@ -186,7 +186,7 @@ impl Sandwich {
         }
         let (min, max) = (eig.eigenvalues[lo], eig.eigenvalues[hi]);
         let condition = if min > 0.0 { max / min } else { f64::INFINITY };
-        if !(condition <= MAX_CONDITION) {
+        if condition.is_nan() || condition > MAX_CONDITION {
             return unbounded(eig.eigenvectors.column(lo).into_owned(), condition);
         }
         // H⁻¹ = S (S H S)⁻¹ S, from the eigen-decomposition.
