@@ -599,8 +599,9 @@ mod tests {
         assert_eq!(nees(&e, &singular), None);
         // Consistency of [0.1, 3, 12] (one outside [0.216, 9.348] on each side).
         let c = Consistency::of(&[0.1, 3.0, 12.0], 2).unwrap();
-        assert!((c.anees - 5.0).abs() < 1e-12);
-        assert!((c.anees_per_dof - 5.0 / 3.0).abs() < 1e-12);
+        // (0.1 + 3 + 12)/3 = 15.1/3.
+        assert!((c.anees - 15.1 / 3.0).abs() < 1e-12);
+        assert!((c.anees_per_dof - 15.1 / 9.0).abs() < 1e-12);
         assert!((c.inside_95_fraction - 1.0 / 3.0).abs() < 1e-12);
         assert_eq!(c.unbounded_pairs, 2);
         assert_eq!(Consistency::of(&[], 1), None);

@@ -256,17 +256,23 @@ impl Registrar for Icp {
         let mut small_update = false;
         let mut last_weight_sum = 0.0;
         let mut iterations = 0;
-        let (stop, mean, used) = loop {
-            let set = PairSet {
-                pairs,
-                src,
-                dst,
-                src_moved: moved,
-                dst_points: dst_pts,
-                src_surfaces,
-                dst_surfaces,
-                t_ref_src,
+        // The pairs of the current matching as the stages see them (in the loop and after it).
+        macro_rules! pair_set {
+            () => {
+                PairSet {
+                    pairs,
+                    src,
+                    dst,
+                    src_moved: moved,
+                    dst_points: dst_pts,
+                    src_surfaces,
+                    dst_surfaces,
+                    t_ref_src,
+                }
             };
+        }
+        let (stop, mean, used) = loop {
+            let set = pair_set!();
             dists.clear();
             dists.extend(set.pairs.iter().map(|p| p.dist_sq.sqrt()));
             // The metric's residuals; NaN marks a pair it cannot use.
@@ -332,16 +338,7 @@ impl Registrar for Icp {
         // is source point i's in every iteration), those of pairs now unusable zeroed; made
         // afresh when no step was taken. The buffers are sized: nothing is allocated.
         let covariance = {
-            let set = PairSet {
-                pairs,
-                src,
-                dst,
-                src_moved: moved,
-                dst_points: dst_pts,
-                src_surfaces,
-                dst_surfaces,
-                t_ref_src,
-            };
+            let set = pair_set!();
             let fresh = iterations == 0 || weights.len() != residuals.len();
             if fresh {
                 self.weighting.weigh_all(&set, weights);

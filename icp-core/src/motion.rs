@@ -47,13 +47,7 @@ impl MovementParams {
         hdg0_deg: f64,
         sense: BearingSense,
     ) -> Result<Self, IcpError> {
-        if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(IcpError::InvalidParameter {
-                name: "dt_s",
-                value: dt_s,
-                reason: "the time between scans must be finite and positive",
-            });
-        }
+        check_dt(dt_s)?;
         if !hdg0_deg.is_finite() {
             return Err(IcpError::NonFinite {
                 what: "hdg0_deg",
@@ -103,13 +97,7 @@ impl MovementSigmas {
         cov: &Matrix3<f64>,
         dt_s: f64,
     ) -> Result<Self, IcpError> {
-        if !(dt_s.is_finite() && dt_s > 0.0) {
-            return Err(IcpError::InvalidParameter {
-                name: "dt_s",
-                value: dt_s,
-                reason: "the time between scans must be finite and positive",
-            });
-        }
+        check_dt(dt_s)?;
         if let Some((index, &value)) = cov.iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(IcpError::NonFinite {
                 what: "covariance",
@@ -130,6 +118,19 @@ impl MovementSigmas {
             sog_mps: var_sog.max(0.0).sqrt() / dt_s, // eq. 23
             dcog_deg,                                // eq. 24
             rot_dps: dcog_deg / dt_s,                // eq. 25
+        })
+    }
+}
+
+/// `Err` unless the time between the scans, `dt_s`, is finite and positive.
+fn check_dt(dt_s: f64) -> Result<(), IcpError> {
+    if dt_s.is_finite() && dt_s > 0.0 {
+        Ok(())
+    } else {
+        Err(IcpError::InvalidParameter {
+            name: "dt_s",
+            value: dt_s,
+            reason: "the time between scans must be finite and positive",
         })
     }
 }

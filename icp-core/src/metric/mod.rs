@@ -146,6 +146,20 @@ fn e_jacobian(m: &Point2<f64>, c: &Point2<f64>) -> Matrix2x3<f64> {
     Matrix2x3::new(1.0, 0.0, tx, 0.0, 1.0, ty)
 }
 
+/// The closed form's sums over the pairs with a positive weight, `add` adding pair `i` of
+/// weight `w` to them.
+fn sandwich_over(
+    set: &PairSet<'_>,
+    weights: &[f64],
+    mut add: impl FnMut(&mut Sandwich, usize, f64),
+) -> Sandwich {
+    let mut sums = Sandwich::about(center(set));
+    for (i, w) in weighted(weights) {
+        add(&mut sums, i, w);
+    }
+    sums
+}
+
 /// The variance of pair `i`'s residual along the unit normal `n` (frame k+1) from its two
 /// returns' sensor noise: eq. 9 along `n` for each, `nᵀ(R C_p Rᵀ + C_q)n`, m², without
 /// forming the matrices.

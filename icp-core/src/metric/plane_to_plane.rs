@@ -6,8 +6,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    center, check_gate, difference_noise, e_jacobian, turn, weighted, within, Anchor, Ends, Metric,
-    NormalEquations,
+    center, check_gate, difference_noise, e_jacobian, sandwich_over, turn, weighted, within,
+    Anchor, Ends, Metric, NormalEquations,
 };
 use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
@@ -146,20 +146,12 @@ impl Metric for PlaneToPlane {
         weights: &[f64],
         sensor: &SensorModel,
     ) -> Option<Sandwich> {
-        let mut sums = Sandwich::about(center(set));
-        for (i, w) in weighted(weights) {
-            let Some((ends, omega)) = self.terms(set, i) else {
-                continue;
-            };
-            let jac = e_jacobian(&ends.source, &sums.center);
-            sums.add(
-                &ends.source,
-                &jac,
-                &omega,
-                &difference_noise(set, i, sensor),
-                w,
-            );
-        }
-        Some(sums)
+        Some(sandwich_over(set, weights, |sums, i, w| {
+            if let Some((ends, omega)) = self.terms(set, i) {
+                let jac = e_jacobian(&ends.source, &sums.center);
+                let noise = difference_noise(set, i, sensor);
+                sums.add(&ends.source, &jac, &omega, &noise, w);
+            }
+        }))
     }
 }

@@ -6,7 +6,8 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::{
-    center, check_gate, normal_noise, turn, weighted, within, Anchor, Metric, NormalEquations,
+    center, check_gate, normal_noise, sandwich_over, turn, weighted, within, Anchor, Metric,
+    NormalEquations,
 };
 use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
@@ -95,16 +96,13 @@ impl Metric for PointToLine {
         weights: &[f64],
         sensor: &SensorModel,
     ) -> Option<Sandwich> {
-        let mut sums = Sandwich::about(center(set));
-        for (i, w) in weighted(weights) {
-            let Some(ends) = self.anchor.ends(set, i) else {
-                continue;
-            };
-            let n = ends.surface.normal;
-            let (tx, ty) = turn(&ends.source, &sums.center);
-            let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
-            sums.add_scalar(&ends.source, &j, normal_noise(set, i, &n, sensor), w);
-        }
-        Some(sums)
+        Some(sandwich_over(set, weights, |sums, i, w| {
+            if let Some(ends) = self.anchor.ends(set, i) {
+                let n = ends.surface.normal;
+                let (tx, ty) = turn(&ends.source, &sums.center);
+                let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
+                sums.add_scalar(&ends.source, &j, normal_noise(set, i, &n, sensor), w);
+            }
+        }))
     }
 }
