@@ -43,6 +43,7 @@ fn main() -> anyhow::Result<()> {
         global: Default::default(),
         global_check: Default::default(),
         start_gate: Default::default(),
+        covariance: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

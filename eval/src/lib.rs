@@ -15,6 +15,7 @@ use indicatif::ProgressBar;
 pub mod basin;
 pub mod bound;
 pub mod compare;
+pub mod consistency;
 pub mod estimates;
 pub mod evo;
 pub mod evo_zip;
@@ -30,6 +31,7 @@ pub mod published;
 pub mod reference;
 pub mod report;
 pub mod runner;
+pub mod sampled;
 pub mod scaling;
 pub mod shard;
 pub mod start_gate;
@@ -106,7 +108,10 @@ pub fn evaluate(
         check: setup.global_check == GlobalChecks::On,
         close: &close,
     };
-    let runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    let mut runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    if setup.covariance == consistency::CovarianceMode::Sampled {
+        sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
+    }
     progress.finish_and_clear();
     Ok(report::build(ds, &pairs, skipped, setup, &runs))
 }

@@ -540,6 +540,7 @@ pub fn table_md(report: &RunReport) -> String {
             );
         }
     }
+    crate::consistency::consistency_md(&mut out, report);
     if d.name == "marina" {
         let _ = writeln!(out, "\n## Published (Naus & Marchel 2019, Table 1: 865 scans every 0.2 s) beside ours (175 pairs every ~1 s, all pairs)\n");
         let _ = writeln!(

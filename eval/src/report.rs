@@ -9,6 +9,7 @@ use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
 use crate::bound::{self, BoundSummary, OverBound, PairBound};
+use crate::consistency::{self, ConsistencySummary, CovarianceMode};
 use crate::evo::{EvoMetrics, ReferenceTum};
 use crate::init::{InitChain, InitMode};
 use crate::outcome::{self, FlagQuality};
@@ -139,6 +140,42 @@ pub struct PairRecord {
     pub bound_rot_deg: Option<f64>,
     /// False when the reference step is flagged as implausible (or absent).
     pub ref_plausible: bool,
+    /// The covariance of this row's `tx_m`, `ty_m` and θ in radians (see
+    /// [`crate::consistency`]): `bounded`, `unbounded` (a direction the pairs leave
+    /// unconstrained: the `cov_*` cells are empty) or empty (none: `--covariance off`, or
+    /// the closed form of a point-to-point variant).
+    #[serde(default)]
+    pub cov_status: String,
+    /// Covariance of `tx`, m².
+    #[serde(default)]
+    pub cov_xx_m2: Option<f64>,
+    /// Covariance of `tx` and `ty`, m².
+    #[serde(default)]
+    pub cov_xy_m2: Option<f64>,
+    /// Covariance of `tx` and θ, m·rad.
+    #[serde(default)]
+    pub cov_xt_m_rad: Option<f64>,
+    /// Covariance of `ty`, m².
+    #[serde(default)]
+    pub cov_yy_m2: Option<f64>,
+    /// Covariance of `ty` and θ, m·rad.
+    #[serde(default)]
+    pub cov_yt_m_rad: Option<f64>,
+    /// Variance of θ, rad².
+    #[serde(default)]
+    pub cov_tt_rad2: Option<f64>,
+    /// Standard error of the SOG estimate, m/s (first order through eq. 23).
+    #[serde(default)]
+    pub sog_sigma_mps: Option<f64>,
+    /// Standard error of the ΔCOG estimate, degrees (eq. 24).
+    #[serde(default)]
+    pub dcog_sigma_deg: Option<f64>,
+    /// Standard error of the ROT estimate, °/s (eq. 25).
+    #[serde(default)]
+    pub rot_sigma_dps: Option<f64>,
+    /// NEES of `(tx, ty, θ)` against the reference, where it is a rigid pose.
+    #[serde(default)]
+    pub nees: Option<f64>,
     /// Wall time of the registration, its scans' surface estimates aside, µs (not
     /// reproducible; last column so checks can drop it).
     pub time_us: f64,
@@ -256,6 +293,10 @@ pub struct VariantSummary {
     pub over_bound: Option<OverBound>,
     /// Wall time per registration.
     pub timing: Option<Timing>,
+    /// Whether the covariances are honest: NEES against a rigid reference, standardised
+    /// SOG and ΔCOG errors (see [`crate::consistency`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub consistency: Option<ConsistencySummary>,
 }
 
 /// What the dataset was.
@@ -432,6 +473,8 @@ pub struct EvalSetup {
     pub global_check: GlobalChecks,
     /// How registrations started close to the motion gate their correspondences.
     pub start_gate: StartGate,
+    /// Where each registration's covariance comes from.
+    pub covariance: CovarianceMode,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -460,6 +503,7 @@ impl EvalSetup {
             global: GlobalParams::default(),
             global_check: GlobalChecks::Off,
             start_gate: StartGate::default(),
+            covariance: CovarianceMode::Off,
         })
     }
 
@@ -505,6 +549,12 @@ impl EvalSetup {
                     .transpose()
             })
             .collect()
+    }
+
+    /// The same setup with the covariances of `mode`.
+    pub fn with_covariance(mut self, mode: CovarianceMode) -> Self {
+        self.covariance = mode;
+        self
     }
 
     /// The same setup with the global search's parameters `global` and checks `check`.
@@ -631,6 +681,7 @@ pub fn build(
     for (vi, variant) in setup.variants.iter().enumerate() {
         let mut rows = Vec::with_capacity(pairs.len());
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
+        let inflation = consistency::closed_form_inflation(&variant.spec().metric);
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
                 variant.name(),
@@ -645,6 +696,13 @@ pub fn build(
                 plausible[i],
             ));
             rows[i].hdg_chained_err_deg = chained[i];
+            consistency::fill(
+                &mut rows[i],
+                run.result.as_ref().ok(),
+                refs[i].and_then(|r| r.t_ref_src),
+                setup.covariance,
+                inflation,
+            );
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
         summaries.push(summarize(
@@ -661,6 +719,19 @@ pub fn build(
             let evo = crate::evo::evo_metrics(traj, &reference_trajectory, kind);
             summary.trajectory.ate_rmse_m = evo.as_ref().map(|e| e.ate_trans_m.rmse);
             summary.trajectory.evo = evo;
+        }
+        if let Some(last) = summaries.last_mut() {
+            last.consistency = consistency::summarize(
+                &rows,
+                setup.covariance,
+                inflation,
+                // Ground truth carries no noise of its own to estimate.
+                if rigid {
+                    None
+                } else {
+                    consistency::reference_noise(&rows)
+                },
+            );
         }
         records.extend(rows);
     }
@@ -820,6 +891,17 @@ fn record(
         bound_trans_m: bound.and_then(|b| b.trans_m()),
         bound_rot_deg: bound.and_then(|b| b.rot_deg()),
         ref_plausible: plausible,
+        cov_status: String::new(),
+        cov_xx_m2: None,
+        cov_xy_m2: None,
+        cov_xt_m_rad: None,
+        cov_yy_m2: None,
+        cov_yt_m_rad: None,
+        cov_tt_rad2: None,
+        sog_sigma_mps: None,
+        dcog_sigma_deg: None,
+        rot_sigma_dps: None,
+        nees: None,
         time_us: run.time_us,
     }
 }
@@ -895,6 +977,7 @@ fn summarize(
         })),
         timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         failures,
+        consistency: None,
     }
 }
 

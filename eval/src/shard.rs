@@ -43,6 +43,7 @@ use sha2::{Digest, Sha256};
 
 use crate::basin::{BasinOptions, BasinRow};
 use crate::compare::CompareOptions;
+use crate::consistency::CovarianceMode;
 use crate::init::InitChain;
 use crate::report::{EvalSetup, GlobalChecks, OffsetChoice};
 use crate::runner::Runs;
@@ -431,6 +432,9 @@ pub struct RunOptions {
     /// How registrations started close to the motion gate their correspondences.
     #[serde(default)]
     pub start_gate: StartGate,
+    /// Where each registration's covariance comes from.
+    #[serde(default)]
+    pub covariance: CovarianceMode,
 }
 
 impl RunOptions {
@@ -440,7 +444,8 @@ impl RunOptions {
             .with_reference_checks(self.reference_checks)
             .with_init(self.init.clone())
             .with_global(self.global, self.global_check)
-            .with_start_gate(self.start_gate))
+            .with_start_gate(self.start_gate)
+            .with_covariance(self.covariance))
     }
 }
 

@@ -478,6 +478,21 @@ fn sensor_with_garbage() {
     );
 }
 
+// ---- The covariance of a run (`--covariance`) --------------------------------------------------
+
+#[test]
+fn covariance_with_an_unknown_mode() {
+    assert_eq!(
+        run_with_args("matrix_covariance_mode", &["--covariance", "closed_form"]),
+        (
+            Some(2),
+            "error: invalid value 'closed_form' for '--covariance <COVARIANCE>': --covariance \
+             \"closed_form\": unknown mode (known: closed-form, sampled, off)"
+                .to_owned()
+        )
+    );
+}
+
 // ---- Registration (the core) --------------------------------------------------------------
 
 fn register(source: &[[f64; 2]], reference: &[[f64; 2]]) -> String {

@@ -185,6 +185,7 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
         global: Default::default(),
         global_check: Default::default(),
         start_gate: Default::default(),
+        covariance: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.population.pairs, 6);

@@ -36,6 +36,7 @@ fn a_user_variant_runs_compares_and_describes_itself() {
         global: Default::default(),
         global_check: Default::default(),
         start_gate: Default::default(),
+        covariance: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.variants[1].name, "RA_ICP");

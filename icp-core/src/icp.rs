@@ -256,17 +256,23 @@ impl Registrar for Icp {
         let mut small_update = false;
         let mut last_weight_sum = 0.0;
         let mut iterations = 0;
-        let (stop, mean, used) = loop {
-            let set = PairSet {
-                pairs,
-                src,
-                dst,
-                src_moved: moved,
-                dst_points: dst_pts,
-                src_surfaces,
-                dst_surfaces,
-                t_ref_src,
+        // The pairs of the current matching as the stages see them (in the loop and after it).
+        macro_rules! pair_set {
+            () => {
+                PairSet {
+                    pairs,
+                    src,
+                    dst,
+                    src_moved: moved,
+                    dst_points: dst_pts,
+                    src_surfaces,
+                    dst_surfaces,
+                    t_ref_src,
+                }
             };
+        }
+        let (stop, mean, used) = loop {
+            let set = pair_set!();
             dists.clear();
             dists.extend(set.pairs.iter().map(|p| p.dist_sq.sqrt()));
             // The metric's residuals; NaN marks a pair it cannot use.
@@ -328,6 +334,27 @@ impl Registrar for Icp {
             }
             index.match_all(moved, pairs); // Alg. 1 step 2
         };
+        // The closed-form covariance, once, with the weights of the final iteration (pair i
+        // is source point i's in every iteration), those of pairs now unusable zeroed; made
+        // afresh when no step was taken. The buffers are sized: nothing is allocated.
+        let covariance = {
+            let set = pair_set!();
+            let fresh = iterations == 0 || weights.len() != residuals.len();
+            if fresh {
+                self.weighting.weigh_all(&set, weights);
+            }
+            for (w, r) in weights.iter_mut().zip(residuals.iter()) {
+                if r.is_nan() {
+                    *w = 0.0;
+                }
+            }
+            if fresh {
+                self.robust.reweight(dists, residuals, weights, scratch);
+            }
+            self.metric
+                .sandwich(&set, weights, &self.sensor)
+                .map(|sums| sums.covariance(&t_ref_src))
+        };
         Ok(Registration {
             t_ref_src,
             iterations,
@@ -338,6 +365,7 @@ impl Registrar for Icp {
             mean_residual_m: mean,
             conditioning: conditioning(moved, dst_surfaces, pairs),
             overlap: overlap(moved, dst_pts, pairs),
+            covariance,
         })
     }
 }

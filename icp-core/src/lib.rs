@@ -47,6 +47,7 @@
 
 pub mod bound;
 mod cells;
+pub mod covariance;
 pub mod error;
 pub mod global;
 pub mod icp;
@@ -68,6 +69,7 @@ pub mod termination;
 pub mod variants;
 pub mod weighting;
 
+pub use covariance::Covariance;
 pub use error::{ConfigError, IcpError};
 
 /// The README's Rust examples, compiled and run as doctests so the README stays true.
@@ -75,7 +77,7 @@ pub use error::{ConfigError, IcpError};
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;
 pub use icp::{Icp, Workspace};
-pub use motion::{BearingSense, MovementParams};
+pub use motion::{BearingSense, MovementParams, MovementSigmas};
 pub use quality::Conditioning;
 pub use registration::{Prepared, Registrar, Registration};
 pub use scan::Scan;

@@ -3,6 +3,7 @@
 
 use nalgebra::Isometry2;
 
+use crate::covariance::Covariance;
 use crate::error::ScanRole;
 use crate::icp::Workspace;
 use crate::quality::{Conditioning, MIN_OVERLAP};
@@ -36,6 +37,10 @@ pub struct Registration {
     /// points near reference points and of reference points near source points (see
     /// [`crate::quality::overlap`]).
     pub overlap: f64,
+    /// The covariance of `t_ref_src` over `(tx m, ty m, θ rad)` by Censi's closed form (see
+    /// [`crate::covariance`]), from the final pairs and weights and the chain's sensor model;
+    /// `None` for a metric without a valid closed form (point-to-point).
+    pub covariance: Option<Covariance>,
 }
 
 impl Registration {

@@ -20,13 +20,16 @@
 //! end alone at its mean, 1.07 with both; PL_ICP 1.53, 1.38, 1.32. On the marina data (ΔCOG
 //! median |e|, plausible pairs) GICP 0.070° → 0.068°, HD_GICP 0.067° → 0.065°.
 
-use nalgebra::{Isometry2, Matrix3, Point2, Vector3};
+use nalgebra::{Isometry2, Matrix2, Matrix2x3, Matrix3, Point2, Vector2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
 use crate::registry::{Family, ParamError, StageSpec};
+use crate::scan::Return;
 use crate::surface::SurfacePoint;
+use crate::SensorModel;
 
 mod plane_to_plane;
 mod point_to_line;
@@ -121,6 +124,69 @@ pub trait Metric: Send + Sync {
     /// The cost `Σ w eᵀ Ω e` after the increment `increment` (with each pair's `Ω` kept at
     /// the current estimate), for the minimiser's step control.
     fn cost(&self, set: &PairSet<'_>, weights: &[f64], increment: &Isometry2<f64>) -> f64;
+
+    /// The sums of Censi's closed-form covariance at the solution (see [`crate::covariance`])
+    /// over the pairs with a positive weight, with both scans' returns noisy as `sensor` says
+    /// (eq. 8); `None` for a metric without a valid closed form (point-to-point, whose
+    /// re-matching the closed form ignores: Bonnabel et al. 2016).
+    fn sandwich(
+        &self,
+        _set: &PairSet<'_>,
+        _weights: &[f64],
+        _sensor: &SensorModel,
+    ) -> Option<Sandwich> {
+        None
+    }
+}
+
+/// `∂e/∂δ = [I, (−(m − c)_y, (m − c)_x)ᵀ]` for a moved point `m` turning about `c`.
+#[inline]
+fn e_jacobian(m: &Point2<f64>, c: &Point2<f64>) -> Matrix2x3<f64> {
+    let (tx, ty) = turn(m, c);
+    Matrix2x3::new(1.0, 0.0, tx, 0.0, 1.0, ty)
+}
+
+/// The closed form's sums over the pairs with a positive weight, `add` adding pair `i` of
+/// weight `w` to them.
+fn sandwich_over(
+    set: &PairSet<'_>,
+    weights: &[f64],
+    mut add: impl FnMut(&mut Sandwich, usize, f64),
+) -> Sandwich {
+    let mut sums = Sandwich::about(center(set));
+    for (i, w) in weighted(weights) {
+        add(&mut sums, i, w);
+    }
+    sums
+}
+
+/// The variance of pair `i`'s residual along the unit normal `n` (frame k+1) from its two
+/// returns' sensor noise: eq. 9 along `n` for each, `nᵀ(R C_p Rᵀ + C_q)n`, m², without
+/// forming the matrices.
+#[inline]
+fn normal_noise(set: &PairSet<'_>, i: usize, n: &Vector2<f64>, sensor: &SensorModel) -> f64 {
+    let c = set.pairs[i];
+    let n_src = set.t_ref_src.rotation.inverse() * n;
+    let along = |p: &Return, n: &Vector2<f64>| {
+        let cos2 = if p.range_m > 0.0 {
+            (n.dot(&p.point.coords) / p.range_m).powi(2)
+        } else {
+            1.0 // at the sensor: σ_r(0) every way, no bearing term
+        };
+        sensor.directional_variance_cos2(p.range_m, cos2.min(1.0))
+    };
+    along(&set.src[c.src], &n_src) + along(&set.dst[c.dst], n)
+}
+
+/// The covariance of pair `i`'s difference `e = R p + T − q` from its two returns' sensor
+/// noise (eq. 8): `R C_p Rᵀ + C_q`, m².
+#[inline]
+fn difference_noise(set: &PairSet<'_>, i: usize, sensor: &SensorModel) -> Matrix2<f64> {
+    let c = set.pairs[i];
+    let (p, q) = (&set.src[c.src], &set.dst[c.dst]);
+    let r = set.t_ref_src.rotation.to_rotation_matrix().into_inner();
+    r * sensor.covariance_at(&p.point, p.range_m) * r.transpose()
+        + sensor.covariance_at(&q.point, q.range_m)
 }
 
 /// Where the surface metrics take the two ends of a pair.

@@ -5,7 +5,11 @@ use nalgebra::{Isometry2, Matrix2, Matrix2x3, Vector2};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, weighted, within, Anchor, Ends, Metric, NormalEquations};
+use super::{
+    center, check_gate, difference_noise, e_jacobian, sandwich_over, turn, weighted, within,
+    Anchor, Ends, Metric, NormalEquations,
+};
+use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
 use crate::SensorModel;
@@ -134,5 +138,20 @@ impl Metric for PlaneToPlane {
             }
         }
         cost
+    }
+
+    fn sandwich(
+        &self,
+        set: &PairSet<'_>,
+        weights: &[f64],
+        sensor: &SensorModel,
+    ) -> Option<Sandwich> {
+        Some(sandwich_over(set, weights, |sums, i, w| {
+            if let Some((ends, omega)) = self.terms(set, i) {
+                let jac = e_jacobian(&ends.source, &sums.center);
+                let noise = difference_noise(set, i, sensor);
+                sums.add(&ends.source, &jac, &omega, &noise, w);
+            }
+        }))
     }
 }

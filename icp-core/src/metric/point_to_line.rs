@@ -5,9 +5,14 @@ use nalgebra::{Isometry2, Vector3};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use super::{center, check_gate, turn, weighted, within, Anchor, Metric, NormalEquations};
+use super::{
+    center, check_gate, normal_noise, sandwich_over, turn, weighted, within, Anchor, Metric,
+    NormalEquations,
+};
+use crate::covariance::Sandwich;
 use crate::pairs::PairSet;
 use crate::registry::{Kind, ParamError, Params, StageKind, StageSpec};
+use crate::SensorModel;
 
 /// `r = nᵀ (R p + T − q)`, `Ω = n nᵀ`, with `n` the reference surface normal at the matched
 /// return, and `p`, `q` the pair's ends: by default the means of the two returns'
@@ -83,5 +88,21 @@ impl Metric for PointToLine {
             }
         }
         cost
+    }
+
+    fn sandwich(
+        &self,
+        set: &PairSet<'_>,
+        weights: &[f64],
+        sensor: &SensorModel,
+    ) -> Option<Sandwich> {
+        Some(sandwich_over(set, weights, |sums, i, w| {
+            if let Some(ends) = self.anchor.ends(set, i) {
+                let n = ends.surface.normal;
+                let (tx, ty) = turn(&ends.source, &sums.center);
+                let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
+                sums.add_scalar(&ends.source, &j, normal_noise(set, i, &n, sensor), w);
+            }
+        }))
     }
 }

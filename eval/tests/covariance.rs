@@ -1,0 +1,122 @@
+//! The covariance columns of a run: the sampled estimate is the same whatever the thread count,
+//! the closed form gives point-to-point variants nothing, an unbounded covariance gives empty
+//! cells and a flag, and no table holds a NaN.
+
+use datasets::synthetic::{generate, Scenario};
+use eval::consistency::{fill, CovarianceMode};
+use eval::report::PairRecord;
+use eval::{evaluate, EvalSetup, OffsetChoice};
+use icp_core::variants::builtin;
+use icp_core::{Covariance, Registration, StopReason};
+use indicatif::ProgressBar;
+use nalgebra::{Isometry2, Vector2, Vector3};
+
+fn setup(mode: CovarianceMode) -> EvalSetup {
+    let specs: Vec<_> = ["HD_ICP", "HD_PL_ICP"]
+        .iter()
+        .map(|n| builtin(n).unwrap())
+        .collect();
+    EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
+        .unwrap()
+        .with_covariance(mode)
+}
+
+fn covariance_cells(r: &PairRecord) -> [Option<f64>; 10] {
+    [
+        r.cov_xx_m2,
+        r.cov_xy_m2,
+        r.cov_xt_m_rad,
+        r.cov_yy_m2,
+        r.cov_yt_m_rad,
+        r.cov_tt_rad2,
+        r.sog_sigma_mps,
+        r.dcog_sigma_deg,
+        r.rot_sigma_dps,
+        r.nees,
+    ]
+}
+
+#[test]
+fn sampled_is_the_same_whatever_the_thread_count_and_the_closed_form_skips_point_to_point() {
+    let ds = generate(&Scenario {
+        n_scans: 5,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let run = |threads: usize, mode: CovarianceMode| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| evaluate(&ds, &setup(mode), &ProgressBar::hidden()).unwrap())
+    };
+    let (one, two) = (
+        run(1, CovarianceMode::Sampled),
+        run(2, CovarianceMode::Sampled),
+    );
+    assert_eq!(one.pairs.len(), 8);
+    for (a, b) in one.pairs.iter().zip(&two.pairs) {
+        assert_eq!(a.cov_status, "bounded", "{} pair {}", a.variant, a.pair);
+        // Bit-identical, every variant (point-to-point included) has one.
+        assert_eq!(covariance_cells(a), covariance_cells(b));
+        assert!(a.nees.is_some_and(f64::is_finite));
+    }
+    let closed = run(2, CovarianceMode::ClosedForm);
+    for r in &closed.pairs {
+        let has = r.variant == "HD_PL_ICP";
+        assert_eq!(r.cov_status, if has { "bounded" } else { "" });
+        assert_eq!(r.cov_xx_m2.is_some(), has, "{}", r.variant);
+    }
+    let off = run(2, CovarianceMode::Off);
+    assert!(off
+        .pairs
+        .iter()
+        .all(|r| r.cov_status.is_empty() && covariance_cells(r).iter().all(Option::is_none)));
+    assert!(off.variants.iter().all(|v| v.consistency.is_none()));
+    for report in [&one, &closed] {
+        let csv = String::from_utf8(eval::output::pairs_csv(report).unwrap()).unwrap();
+        assert!(!csv.to_lowercase().contains("nan"), "{csv}");
+        assert!(csv.lines().next().unwrap().contains(
+            "cov_xx_m2,cov_xy_m2,cov_xt_m_rad,cov_yy_m2,cov_yt_m_rad,cov_tt_rad2,sog_sigma_mps,\
+             dcog_sigma_deg,rot_sigma_dps,nees"
+        ));
+        let md = eval::output::table_md(report);
+        assert!(md.contains("## Covariance consistency") && !md.contains("NaN"));
+    }
+}
+
+#[test]
+fn an_unbounded_covariance_gives_empty_cells_and_a_flag() {
+    let mut row: PairRecord = serde_json::from_value(serde_json::json!({
+        "variant": "HD_PL_ICP", "pair": 0, "source": 0, "reference": 1, "dt_s": 0.2,
+        "status": "degenerate", "status_reason": "", "all_registered": true, "init": "identity",
+        "init_attempts": 1, "converged": true, "iterations": 3, "n_pairs": 100,
+        "n_unusable": 0, "ref_plausible": true, "time_us": 1.0
+    }))
+    .unwrap();
+    let mut reg = Registration {
+        t_ref_src: Isometry2::new(Vector2::new(0.2, 0.0), 0.0),
+        iterations: 3,
+        stop: StopReason::Converged,
+        n_pairs: 100,
+        n_unusable: 0,
+        weight_sum: 100.0,
+        mean_residual_m: 0.01,
+        conditioning: None,
+        overlap: 1.0,
+        covariance: Some(Covariance::Unbounded {
+            direction: Vector3::x(),
+            condition: f64::INFINITY,
+        }),
+    };
+    let truth = Some(Isometry2::identity());
+    fill(&mut row, Some(&reg), truth, CovarianceMode::ClosedForm, 1.0);
+    assert_eq!(row.cov_status, "unbounded");
+    assert!(covariance_cells(&row).iter().all(Option::is_none));
+    // A bounded one fills every cell; the NEES of e = (0.2, 0, 0) under 0.01·I is 4.
+    reg.covariance = Some(Covariance::Bounded(nalgebra::Matrix3::identity() * 0.01));
+    fill(&mut row, Some(&reg), truth, CovarianceMode::ClosedForm, 1.0);
+    assert_eq!(row.cov_status, "bounded");
+    assert!((row.nees.unwrap() - 4.0).abs() < 1e-12);
+    assert!((row.sog_sigma_mps.unwrap() - 0.1 / 0.2).abs() < 1e-12);
+}
