@@ -229,10 +229,15 @@ fn ln_gamma(x: f64) -> f64 {
     0.5 * std::f64::consts::TAU.ln() + (x + 0.5) * t.ln() - t + sum.ln()
 }
 
+/// The CDF of χ²(`dof`) at `x`: `P(dof/2, x/2)`.
+pub fn chi2_cdf(dof: f64, x: f64) -> f64 {
+    gamma_p(dof / 2.0, x / 2.0)
+}
+
 /// The `p` quantile of χ²(`dof`): the `x` with `P(dof/2, x/2) = p`, by bisection to
 /// 1e-12 relative. `dof > 0`, `p` in (0, 1).
 pub fn chi2_quantile(dof: f64, p: f64) -> f64 {
-    let cdf = |x: f64| gamma_p(dof / 2.0, x / 2.0);
+    let cdf = |x: f64| chi2_cdf(dof, x);
     let (mut lo, mut hi) = (0.0, dof.max(1.0));
     while cdf(hi) < p {
         hi *= 2.0;

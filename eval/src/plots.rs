@@ -519,6 +519,9 @@ pub fn write_all(out: &mut OutputDir, ds: &Dataset, report: &RunReport) -> Resul
         None
     };
     save(out, "trajectory", &Trajectories { report, reference })?;
+    if report.pairs.iter().any(|r| r.nees.is_some()) {
+        save(out, "nees", &NeesCdf { report })?;
+    }
     let chosen = map_variants(report);
     let panels = |max_points: usize| -> Vec<_> {
         chosen
@@ -916,4 +919,85 @@ pub fn write_scaling(
     result: &crate::scaling::ScalingResult,
 ) -> Result<(), EvalError> {
     save(out, "scaling", &ScalingFigure { result })
+}
+
+/// Largest NEES shown: the χ²(3) CDF is 0.9985 there; larger values sit at the right edge.
+const NEES_AXIS_MAX: f64 = 16.0;
+
+/// The cumulative distribution of each variant's NEES (pairs with a rigid reference and a
+/// bounded covariance) against χ²(3), the distribution a consistent covariance gives
+/// (Bar-Shalom, Li & Kirubarajan 2001, §5.4): a curve left of χ²(3) is under-confident,
+/// right of it over-confident.
+struct NeesCdf<'a> {
+    report: &'a RunReport,
+}
+
+impl Figure for NeesCdf<'_> {
+    fn size(&self) -> (u32, u32) {
+        (900, 600)
+    }
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+        root.fill(&WHITE).map_err(err)?;
+        let title = format!(
+            "NEES against χ²(3) — {} (covariance: {})",
+            self.report.dataset.name, self.report.config.covariance
+        );
+        let root = root.titled(&title, (FONT, 20)).map_err(err)?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0.0..NEES_AXIS_MAX, 0.0..1.0)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("NEES of t_ref_src (x, y, θ)")
+            .y_desc("fraction of pairs with a smaller NEES")
+            .draw()
+            .map_err(err)?;
+        let xs = (0..=160).map(|k| k as f64 * NEES_AXIS_MAX / 160.0);
+        chart
+            .draw_series(LineSeries::new(
+                xs.map(|x| (x, crate::consistency::chi2_cdf(3.0, x))),
+                BLACK.stroke_width(3),
+            ))
+            .map_err(err)?
+            .label("χ²(3)")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(3)));
+        for (vi, v) in self.report.variants.iter().enumerate() {
+            let mut nees: Vec<f64> = self
+                .report
+                .pairs
+                .iter()
+                .filter(|r| r.variant == v.name)
+                .filter_map(|r| r.nees)
+                .collect();
+            if nees.is_empty() {
+                continue;
+            }
+            nees.sort_by(f64::total_cmp);
+            let n = nees.len() as f64;
+            let steps: Vec<(f64, f64)> = nees
+                .iter()
+                .enumerate()
+                .map(|(i, &x)| (x.min(NEES_AXIS_MAX), (i + 1) as f64 / n))
+                .collect();
+            let color = COLORS[vi % COLORS.len()];
+            chart
+                .draw_series(LineSeries::new(steps, color.stroke_width(2)))
+                .map_err(err)?
+                .label(format!("{} ({} pairs)", v.name, nees.len()))
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+        Ok(())
+    }
 }

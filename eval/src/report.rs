@@ -412,6 +412,9 @@ pub struct RunConfig {
     /// ([`crate::start_gate`]); empty when no registration starts close.
     #[serde(default)]
     pub start_gated: Vec<(String, f64)>,
+    /// Where each registration's covariance came from.
+    #[serde(default)]
+    pub covariance: CovarianceMode,
 }
 
 /// The whole run.
@@ -760,6 +763,7 @@ pub fn build(
             global: setup.global,
             global_check: setup.global_check,
             start_gate: setup.start_gate,
+            covariance: setup.covariance,
             start_gated: setup
                 .close_start_specs()
                 .unwrap_or_default()

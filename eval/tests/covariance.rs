@@ -120,3 +120,38 @@ fn an_unbounded_covariance_gives_empty_cells_and_a_flag() {
     assert!((row.nees.unwrap() - 4.0).abs() < 1e-12);
     assert!((row.sog_sigma_mps.unwrap() - 0.1 / 0.2).abs() < 1e-12);
 }
+
+/// The NEES figure is drawn where some pair has a NEES, and its χ²(3) curve is the
+/// distribution whose quantiles the consistency figures use.
+#[test]
+fn the_nees_figure_is_drawn_against_chi2_3() {
+    use eval::consistency::{chi2_cdf, chi2_quantile};
+    for p in [0.025, 0.5, 0.975] {
+        assert!(
+            (chi2_cdf(3.0, chi2_quantile(3.0, p)) - p).abs() < 1e-9,
+            "{p}"
+        );
+    }
+    // χ²(3) has mean 3; its CDF at 3 is 0.608375 (tables).
+    assert!((chi2_cdf(3.0, 3.0) - 0.608_375).abs() < 1e-6);
+    let ds = generate(&Scenario {
+        n_scans: 6,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let report = evaluate(
+        &ds,
+        &setup(CovarianceMode::ClosedForm),
+        &ProgressBar::hidden(),
+    )
+    .unwrap();
+    assert!(report.pairs.iter().any(|r| r.nees.is_some()));
+    let dir = std::env::temp_dir().join(format!("icp-nees-figure-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut out = eval::OutputDir::open(&dir, false).unwrap();
+    eval::write_outputs(&mut out, &ds, &report, true).unwrap();
+    assert!(dir.join("nees.png").is_file() && dir.join("nees.svg").is_file());
+    let off = evaluate(&ds, &setup(CovarianceMode::Off), &ProgressBar::hidden()).unwrap();
+    assert!(off.pairs.iter().all(|r| r.nees.is_none()));
+    let _ = std::fs::remove_dir_all(&dir);
+}
