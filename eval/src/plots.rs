@@ -550,6 +550,20 @@ pub fn write_all(out: &mut OutputDir, ds: &Dataset, report: &RunReport) -> Resul
     save_pair(out, "map", &png, &svg)
 }
 
+/// The chart's series labels in a framed box at `position`.
+fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), String> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
+}
+
 /// A labelled line through `pts` with a dot on each point.
 fn dotted_line<DB, X, Y>(
     chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
@@ -742,13 +756,7 @@ impl Figure for BasinFigure<'_> {
                     .collect();
                 dotted_line(&mut chart, &pts, COLORS[i % COLORS.len()], &v.name)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerLeft)
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()
-                .map_err(err)?;
+            legend(&mut chart, SeriesLabelPosition::LowerLeft)?;
         }
         // Cumulative translation error of the registered results, up to 4× the threshold.
         let x_max = 4.0 * r.success_trans_m;
@@ -788,13 +796,7 @@ impl Figure for BasinFigure<'_> {
                     PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         Ok(())
     }
 }
@@ -901,13 +903,7 @@ impl Figure for ScalingFigure<'_> {
                         PathElement::new(vec![(x, y), (x + 20, y)], COLORS[5].stroke_width(1))
                     });
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperLeft)
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .draw()
-                .map_err(err)?;
+            legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         }
         Ok(())
     }
@@ -991,13 +987,7 @@ impl Figure for NeesCdf<'_> {
                     PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
                 });
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         Ok(())
     }
 }

@@ -177,13 +177,18 @@ fn a_reference_start_needs_a_rigid_reference() {
 /// the identity. The identity start fails and the check flags it; the global start succeeds.
 #[test]
 fn identity_fails_and_global_succeeds_on_a_large_motion() {
-    let mut ds = generate(&Scenario {
+    let ds0 = generate(&Scenario {
         n_scans: 2,
         ..Scenario::paper()
     })
     .unwrap();
     let truth = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.9, -0.8), 75f64.to_radians());
-    let moved: Vec<[f64; 2]> = ds.scans[0]
+    let source: Vec<[f64; 2]> = ds0.scans[0]
+        .returns()
+        .iter()
+        .map(|r| [r.point.x, r.point.y])
+        .collect();
+    let moved: Vec<[f64; 2]> = ds0.scans[0]
         .returns()
         .iter()
         .map(|r| {
@@ -191,18 +196,7 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
             [q.x, q.y]
         })
         .collect();
-    let t1 = ds.scans[1].timestamp_s().unwrap();
-    ds.scans[1] = Scan::from_cartesian(&moved)
-        .unwrap()
-        .with_timestamp(t1)
-        .unwrap();
-    let r0 = ds.reference.as_ref().unwrap()[0];
-    let pose1 = r0.scan_pose().unwrap() * truth.inverse();
-    let r1 = &mut ds.reference.as_mut().unwrap()[1];
-    r1.x_m = pose1.translation.x;
-    r1.y_m = pose1.translation.y;
-    r1.scan_yaw_rad = Some(pose1.rotation.angle());
-    r1.heading_rad = r0.heading_rad + (pose1.rotation.angle() - r0.scan_yaw_rad.unwrap());
+    let ds = two_scans(&source, &moved, truth);
     let run = |init: &str| {
         let specs = [builtin("HD_PL_ICP").unwrap()];
         let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
@@ -240,11 +234,6 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
 /// the gated one, started within a cell of it, never pairs the moved wall.
 #[test]
 fn a_global_start_gates_the_surface_metrics() {
-    let mut ds = generate(&Scenario {
-        n_scans: 2,
-        ..Scenario::paper()
-    })
-    .unwrap();
     let truth = nalgebra::Isometry2::new(nalgebra::Vector2::new(0.6, -0.3), 20f64.to_radians());
     // Three walls that stay, and a fourth whose points in scan 1 sit 0.35 m off it.
     let walls = |moved_wall_offset_m: f64| -> Vec<[f64; 2]> {
@@ -268,20 +257,7 @@ fn a_global_start_gates_the_surface_metrics() {
             [q.x, q.y]
         })
         .collect();
-    for (k, pts) in [(0, &source), (1, &moved)] {
-        let t = ds.scans[k].timestamp_s().unwrap();
-        ds.scans[k] = Scan::from_cartesian(pts)
-            .unwrap()
-            .with_timestamp(t)
-            .unwrap();
-    }
-    let r0 = ds.reference.as_ref().unwrap()[0];
-    let pose1 = r0.scan_pose().unwrap() * truth.inverse();
-    let r1 = &mut ds.reference.as_mut().unwrap()[1];
-    r1.x_m = pose1.translation.x;
-    r1.y_m = pose1.translation.y;
-    r1.scan_yaw_rad = Some(pose1.rotation.angle());
-    r1.heading_rad = r0.heading_rad + (pose1.rotation.angle() - r0.scan_yaw_rad.unwrap());
+    let ds = two_scans(&source, &moved, truth);
     let run = |gate: &str| {
         let specs = [builtin("PL_ICP").unwrap(), builtin("HD_ICP").unwrap()];
         let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
@@ -393,4 +369,33 @@ fn an_odometry_start_takes_the_odometry_and_needs_an_independent_one() {
         );
         assert_eq!(r.variants[v].failure_rate, 0.0);
     }
+}
+
+/// A two-scan dataset: scan 0 from `source`, scan 1 from `reference`, and the reference
+/// poses set so that the true `t_ref_src` is `truth`.
+fn two_scans(
+    source: &[[f64; 2]],
+    reference: &[[f64; 2]],
+    truth: nalgebra::Isometry2<f64>,
+) -> Dataset {
+    let mut ds = generate(&Scenario {
+        n_scans: 2,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    for (k, pts) in [(0, source), (1, reference)] {
+        let t = ds.scans[k].timestamp_s().unwrap();
+        ds.scans[k] = Scan::from_cartesian(pts)
+            .unwrap()
+            .with_timestamp(t)
+            .unwrap();
+    }
+    let r0 = ds.reference.as_ref().unwrap()[0];
+    let pose1 = r0.scan_pose().unwrap() * truth.inverse();
+    let r1 = &mut ds.reference.as_mut().unwrap()[1];
+    r1.x_m = pose1.translation.x;
+    r1.y_m = pose1.translation.y;
+    r1.scan_yaw_rad = Some(pose1.rotation.angle());
+    r1.heading_rad = r0.heading_rad + (pose1.rotation.angle() - r0.scan_yaw_rad.unwrap());
+    ds
 }
