@@ -100,6 +100,13 @@ pub enum IcpError {
     /// The minimiser produced a non-finite transform.
     #[error("the minimiser produced a non-finite transform")]
     NonFiniteTransform,
+    /// An estimator outside this crate (a pose that [`crate::assess`] would assess) gave no
+    /// estimate for the pair: a failure of that estimator.
+    #[error("no estimate: {why}")]
+    NoEstimate {
+        /// Why, in words (e.g. the file has no pose for one of the scans).
+        why: String,
+    },
     /// A global search (see [`crate::global`]) that would need more memory or time than its
     /// limit: too many grid cells, or too many rotation candidates.
     #[error("the global search needs {count} {what}, more than the limit of {max}")]

@@ -116,7 +116,7 @@ pub struct Workspace {
 }
 
 /// `Err` unless `init` is finite.
-fn check_init(init: &Isometry2<f64>) -> Result<(), IcpError> {
+pub(crate) fn check_init(init: &Isometry2<f64>) -> Result<(), IcpError> {
     for (what, value) in [
         ("init.translation", init.translation.vector.norm()),
         ("init.rotation", init.rotation.angle()),

@@ -45,6 +45,7 @@
 //! ```
 #![forbid(unsafe_code)]
 
+pub mod assess;
 pub mod bound;
 mod cells;
 pub mod covariance;
@@ -69,6 +70,7 @@ pub mod termination;
 pub mod variants;
 pub mod weighting;
 
+pub use assess::assess;
 pub use covariance::Covariance;
 pub use error::{ConfigError, IcpError};
 

@@ -44,9 +44,16 @@ pub struct Registration {
 }
 
 impl Registration {
-    /// True when the iteration settled (mean residual or update) before the iteration limit.
+    /// True when the iteration settled (mean residual or update) before the iteration limit;
+    /// false for a pose made elsewhere (nothing settled here, see [`Self::iterated`]).
     pub fn converged(&self) -> bool {
-        self.stop != StopReason::MaxIterations
+        !matches!(self.stop, StopReason::MaxIterations | StopReason::Given)
+    }
+
+    /// False for a pose estimated elsewhere and assessed here ([`crate::assess`]): its
+    /// iteration count and convergence are not ours to report.
+    pub fn iterated(&self) -> bool {
+        self.stop != StopReason::Given
     }
 
     /// True when too few final pairs are close (overlap below [`MIN_OVERLAP`], or NaN).

@@ -90,6 +90,9 @@ pub enum StopReason {
     RepeatedMatching,
     /// `max_iterations` steps were taken without settling.
     MaxIterations,
+    /// Nothing was iterated: the pose was estimated elsewhere and assessed at its value
+    /// ([`crate::assess`]).
+    Given,
 }
 
 #[cfg(test)]

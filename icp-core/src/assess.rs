@@ -1,0 +1,175 @@
+//! A pose estimated elsewhere (another tool's registration, read from a file) assessed the way
+//! a registration of this crate is at its solution, so that its number is flagged by the same
+//! rules: every return of the source scan moved by the pose, matched once to its exact nearest
+//! reference return (a k-d tree, as the [`crate::matching::KdTree`] stage), and the quality
+//! checks of [`crate::quality`] on those pairs (conditioning and overlap). Nothing is iterated
+//! and nothing is estimated: the pose is given and kept.
+
+use nalgebra::{Isometry2, Point2};
+
+use crate::error::ScanRole;
+use crate::icp::check_init;
+use crate::matching::{KdTree, Matcher};
+use crate::quality::{conditioning, overlap};
+use crate::scan::{check_geometry, MIN_POINTS};
+use crate::termination::StopReason;
+use crate::{IcpError, Prepared, Registration};
+
+/// The registration `t_ref_src` would be if it were one of ours: `iterations` 0,
+/// `stop` [`StopReason::Given`], every source return paired (`n_pairs`, unit weights),
+/// `mean_residual_m` the mean nearest-neighbour distance, and the conditioning (from the
+/// reference's surface normals) and overlap at the pose. No covariance: the estimator's own
+/// uncertainty is not known here. The scans are checked as a registration checks them.
+pub fn assess(
+    source: Prepared<'_>,
+    reference: Prepared<'_>,
+    t_ref_src: Isometry2<f64>,
+) -> Result<Registration, IcpError> {
+    check_init(&t_ref_src)?;
+    for (scan, role) in [
+        (&source, ScanRole::Source),
+        (&reference, ScanRole::Reference),
+    ] {
+        if scan.surfaces.points().len() != scan.scan.len() {
+            return Err(IcpError::SurfacesMismatch {
+                role,
+                why: "do not have one estimate per return",
+            });
+        }
+        if scan.scan.len() < MIN_POINTS {
+            return Err(IcpError::TooFewPoints {
+                role,
+                got: scan.scan.len(),
+                need: MIN_POINTS,
+            });
+        }
+    }
+    let dst: Vec<Point2<f64>> = reference.scan.returns().iter().map(|r| r.point).collect();
+    let src: Vec<Point2<f64>> = source.scan.returns().iter().map(|r| r.point).collect();
+    check_geometry(src.iter(), ScanRole::Source)?;
+    check_geometry(dst.iter(), ScanRole::Reference)?;
+    let moved: Vec<Point2<f64>> = src.iter().map(|p| t_ref_src * p).collect();
+    let mut pairs = Vec::with_capacity(moved.len());
+    KdTree.build(&dst)?.match_all(&moved, &mut pairs);
+    let n = pairs.len();
+    let mean_residual_m = pairs.iter().map(|p| p.dist_sq.sqrt()).sum::<f64>() / n as f64;
+    Ok(Registration {
+        t_ref_src,
+        iterations: 0,
+        stop: StopReason::Given,
+        n_pairs: n,
+        n_unusable: 0,
+        weight_sum: n as f64,
+        mean_residual_m,
+        conditioning: conditioning(&moved, reference.surfaces.points(), &pairs),
+        overlap: overlap(&moved, &dst, &pairs),
+        covariance: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector2;
+
+    use super::*;
+    use crate::variants::builtin;
+    use crate::{Registrar, Scan, SurfaceParams, Surfaces, Workspace};
+
+    /// A room: four walls around the origin, sampled every 0.1 m.
+    fn room(t_scan_world: Isometry2<f64>) -> Scan {
+        let mut pts = Vec::new();
+        for i in 0..100 {
+            let s = -5.0 + 0.1 * i as f64;
+            for p in [[s, -4.0], [s, 6.0], [-5.0, s + 1.0], [5.0, s + 1.0]] {
+                let q = t_scan_world * Point2::new(p[0], p[1]);
+                pts.push([q.x, q.y]);
+            }
+        }
+        Scan::from_cartesian(&pts).unwrap()
+    }
+
+    fn corridor(t_scan_world: Isometry2<f64>) -> Scan {
+        let pts: Vec<[f64; 2]> = (0..200)
+            .flat_map(|i| {
+                let x = -10.0 + 0.1 * i as f64;
+                [[x, -1.5], [x, 1.5]]
+            })
+            .map(|p| {
+                let q = t_scan_world * Point2::new(p[0], p[1]);
+                [q.x, q.y]
+            })
+            .collect();
+        Scan::from_cartesian(&pts).unwrap()
+    }
+
+    fn surfaces(scan: &Scan) -> Surfaces {
+        Surfaces::estimate(scan, &SurfaceParams::default())
+    }
+
+    /// At the pose a registration of every return with an exact matcher ends at, the
+    /// assessment's pairs are the registration's final pairs: the same overlap and
+    /// conditioning, bit for bit.
+    #[test]
+    fn same_checks_as_a_registration_at_its_solution() {
+        let motion = Isometry2::new(Vector2::new(0.3, -0.1), 2.0_f64.to_radians());
+        let (source, reference) = (room(Isometry2::identity()), room(motion));
+        let (s, r) = (surfaces(&source), surfaces(&reference));
+        let pl = builtin("PL_ICP").unwrap();
+        assert_eq!(pl.selection.kind, "all", "the oracle needs every return selected");
+        let reg = pl
+            .build()
+            .unwrap()
+            .register_prepared(
+                &mut Workspace::default(),
+                Prepared::new(&source, &s),
+                Prepared::new(&reference, &r),
+                Isometry2::identity(),
+            )
+            .unwrap();
+        let a = assess(
+            Prepared::new(&source, &s),
+            Prepared::new(&reference, &r),
+            reg.t_ref_src,
+        )
+        .unwrap();
+        assert_eq!(a.t_ref_src, reg.t_ref_src);
+        assert_eq!(a.overlap, reg.overlap);
+        assert_eq!(a.conditioning, reg.conditioning);
+        assert_eq!(a.n_pairs, source.len());
+        assert!(!a.iterated() && !a.converged() && a.iterations == 0);
+        assert!(a.covariance.is_none());
+        assert!(a.mean_residual_m < 1e-6, "{}", a.mean_residual_m);
+    }
+
+    /// The flags' inputs move as they must: a corridor is degenerate at the right pose, a
+    /// pose 50 m off overlaps nothing, a wrong pose has a larger residual, a NaN pose is
+    /// refused.
+    #[test]
+    fn flags_a_corridor_a_pose_far_off_and_refuses_nan() {
+        let motion = Isometry2::new(Vector2::new(0.5, 0.0), 0.0);
+        let (source, reference) = (corridor(Isometry2::identity()), corridor(motion));
+        let (s, r) = (surfaces(&source), surfaces(&reference));
+        let at = |pose| assess(Prepared::new(&source, &s), Prepared::new(&reference, &r), pose);
+        let good = at(motion).unwrap();
+        assert!(good.conditioning.unwrap().degenerate(), "{:?}", good.conditioning);
+        assert!(!good.no_overlap());
+        let far = at(Isometry2::new(Vector2::new(0.0, 50.0), 0.0)).unwrap();
+        assert!(far.no_overlap(), "{}", far.overlap);
+        let (source, reference) = (room(Isometry2::identity()), room(motion));
+        let (s, r) = (surfaces(&source), surfaces(&reference));
+        let at = |pose| assess(Prepared::new(&source, &s), Prepared::new(&reference, &r), pose);
+        let right = at(motion).unwrap();
+        assert!(!right.conditioning.unwrap().degenerate());
+        let wrong = at(Isometry2::new(Vector2::new(0.2, 0.3), 0.05)).unwrap();
+        assert!(wrong.mean_residual_m > right.mean_residual_m + 0.05);
+        let nan = Isometry2::new(Vector2::new(f64::NAN, 0.0), 0.0);
+        assert!(matches!(at(nan), Err(IcpError::NonFinite { .. })));
+        // Surfaces of another scan (fewer returns) are refused.
+        let pts: Vec<[f64; 2]> = (0..30).map(|i| [i as f64 * 0.1, (i % 7) as f64]).collect();
+        let other = surfaces(&Scan::from_cartesian(&pts).unwrap());
+        assert!(matches!(
+            assess(Prepared::new(&source, &other), Prepared::new(&reference, &r), motion),
+            Err(IcpError::SurfacesMismatch { .. })
+        ));
+    }
+}
