@@ -44,6 +44,7 @@ fn main() -> anyhow::Result<()> {
         global_check: Default::default(),
         start_gate: Default::default(),
         covariance: Default::default(),
+        estimates: Vec::new(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

@@ -10,10 +10,15 @@
 //! - A CSV of per-pair motions with the header `source,reference,tx_m,ty_m,theta_deg`
 //!   (`t_ref_src`, as in pairs.csv): a pair without a row has no estimate.
 //!
-//! Not wired into `icp-eval run`/`compare` yet: this is the reading and matching, with typed
-//! errors naming the file, line and field.
+//! `icp-eval run` and `compare` take `--estimates NAME=FILE` ([`EstimatesSpec`]); the runner
+//! assesses each estimate at its pose like a registration ([`icp_core::assess`]: the same
+//! overlap, conditioning and global checks flag it), and the report treats the estimator as
+//! one more variant: the same pairs, statistics, figures, `compare` verdicts and gate. It has
+//! no iterations, timing or covariance (empty cells, `null` in summary.json), and the file's
+//! SHA-256 is in `config.estimates`.
 
 use std::path::{Path, PathBuf};
+use std::str::FromStr;
 
 use nalgebra::{Isometry2, UnitComplex, Vector2};
 
@@ -69,19 +74,100 @@ pub enum EstimatesError {
     /// The argument is not `NAME=FILE`.
     #[error("--estimates {0:?}: expected NAME=FILE")]
     Spec(String),
+    /// The file is not the one the run was planned with (a shard or a merge reads another).
+    #[error("{path}: SHA-256 {got}, but the run was planned with {expected}: the file changed")]
+    Changed {
+        path: PathBuf,
+        expected: String,
+        got: String,
+    },
+}
+
+/// Which of the two formats a file is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EstimatesFormat {
+    /// TUM poses, one per scan.
+    Tum,
+    /// A CSV of per-pair motions ([`PAIR_CSV_HEADER`]).
+    PairCsv,
+}
+
+/// What the reports say about an external estimator (`config.estimates`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ExternalSource {
+    /// Its name (the variant name in the reports).
+    pub name: String,
+    /// The file, as given.
+    pub path: PathBuf,
+    /// The file's SHA-256, hex.
+    pub sha256: String,
+    /// Its format.
+    pub format: EstimatesFormat,
+    /// Pairs of the run the file has an estimate for (the others are failures of the
+    /// estimator).
+    pub pairs_estimated: usize,
 }
 
 /// One external estimator's motions on the pairs of a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ExternalEstimates {
-    /// Its name (the variant name in the reports).
+    /// Where they come from.
+    pub source: ExternalSource,
+    /// Per pair of the run, `t_ref_src`, or `None` where the file has none.
+    pub per_pair: Vec<Option<Isometry2<f64>>>,
+}
+
+/// An `--estimates NAME=FILE` as a run (and a sharded run's plan) records it: with the file's
+/// SHA-256 taken when the option is read, so that a shard or a merge that would read another
+/// file is refused ([`EstimatesError::Changed`]).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct EstimatesSpec {
+    /// The estimator's name.
     pub name: String,
     /// The file.
     pub path: PathBuf,
-    /// The file's SHA-256, hex.
+    /// Its SHA-256, hex.
     pub sha256: String,
-    /// Per pair of the run, `t_ref_src`, or `None` where the file has none.
-    pub per_pair: Vec<Option<Isometry2<f64>>>,
+}
+
+impl FromStr for EstimatesSpec {
+    type Err = EstimatesError;
+    /// `NAME=FILE`, the file read for its hash.
+    fn from_str(spec: &str) -> Result<Self, EstimatesError> {
+        let (name, path) = parse_spec(spec)?;
+        let sha256 = datasets::FileProvenance::of(path.clone(), &read(&path)?).sha256;
+        Ok(Self { name, path, sha256 })
+    }
+}
+
+impl EstimatesSpec {
+    /// The estimates on `pairs` of `ds`, from the file this spec was made from.
+    pub fn load(
+        &self,
+        ds: &datasets::Dataset,
+        pairs: &[ScanPair],
+    ) -> Result<ExternalEstimates, EstimatesError> {
+        let times: Vec<f64> = (0..ds.scans.len())
+            .map(|k| crate::report::scan_time_s(ds, k))
+            .collect();
+        let e = load(&self.name, &self.path, &times, pairs)?;
+        if e.source.sha256 != self.sha256 {
+            return Err(EstimatesError::Changed {
+                path: self.path.clone(),
+                expected: self.sha256.clone(),
+                got: e.source.sha256,
+            });
+        }
+        Ok(e)
+    }
+}
+
+fn read(path: &Path) -> Result<Vec<u8>, EstimatesError> {
+    std::fs::read(path).map_err(|source| EstimatesError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
 }
 
 /// `NAME=FILE`.
@@ -101,21 +187,24 @@ pub fn load(
     scan_times_s: &[f64],
     pairs: &[ScanPair],
 ) -> Result<ExternalEstimates, EstimatesError> {
-    let bytes = std::fs::read(path).map_err(|source| EstimatesError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read(path)?;
     let sha256 = datasets::FileProvenance::of(path.to_path_buf(), &bytes).sha256;
     let text = String::from_utf8_lossy(&bytes);
     let first = content_lines(&text).next().map(|(_, l)| l);
-    let per_pair = if first.is_some_and(|l| l.starts_with("source")) {
-        per_pair_from_csv(&text, path, pairs)?
+    let format = if first.is_some_and(|l| l.starts_with("source")) {
+        EstimatesFormat::PairCsv
     } else {
-        let poses = per_scan_from_tum(&text, path, scan_times_s)?;
-        pairs
-            .iter()
-            .map(|p| Some(poses[p.reference]?.inverse() * poses[p.source]?))
-            .collect()
+        EstimatesFormat::Tum
+    };
+    let per_pair: Vec<_> = match format {
+        EstimatesFormat::PairCsv => per_pair_from_csv(&text, path, pairs)?,
+        EstimatesFormat::Tum => {
+            let poses = per_scan_from_tum(&text, path, scan_times_s)?;
+            pairs
+                .iter()
+                .map(|p| Some(poses[p.reference]?.inverse() * poses[p.source]?))
+                .collect()
+        }
     };
     if per_pair.iter().all(Option::is_none) {
         return Err(EstimatesError::Empty {
@@ -123,9 +212,13 @@ pub fn load(
         });
     }
     Ok(ExternalEstimates {
-        name: name.to_owned(),
-        path: path.to_path_buf(),
-        sha256,
+        source: ExternalSource {
+            name: name.to_owned(),
+            path: path.to_path_buf(),
+            sha256,
+            format,
+            pairs_estimated: per_pair.iter().flatten().count(),
+        },
         per_pair,
     })
 }

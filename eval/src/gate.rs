@@ -95,12 +95,11 @@ pub fn metrics(v: &VariantSummary) -> Vec<(String, f64, Better)> {
     let mut out = vec![
         ("pairs_ok".to_owned(), v.pairs_ok as f64, Better::Higher),
         ("failure_rate".to_owned(), v.failure_rate, Better::Lower),
-        (
-            "converged_fraction".to_owned(),
-            v.converged_fraction,
-            Better::Higher,
-        ),
     ];
+    // An external estimator has none (nothing iterated here).
+    if let Some(c) = v.converged_fraction {
+        out.push(("converged_fraction".to_owned(), c, Better::Higher));
+    }
     if let Some(rate) = v.success_rate {
         out.push(("success_rate".to_owned(), rate, Better::Higher));
     }

@@ -88,6 +88,9 @@ pub enum EvalError {
     /// The initial-guess option cannot be used on this dataset.
     #[error(transparent)]
     Init(#[from] init::InitError),
+    /// An external estimates file cannot be used.
+    #[error(transparent)]
+    Estimates(#[from] estimates::EstimatesError),
     /// The dataset has no pair of consecutive scans at all.
     #[error("{dataset} has {scans} scan(s): no pair of consecutive scans to register")]
     NothingToRegister { dataset: String, scans: usize },
@@ -100,15 +103,15 @@ pub fn evaluate(
     progress: &ProgressBar,
 ) -> Result<RunReport, EvalError> {
     let (pairs, skipped) = checked_pairs(ds, setup)?;
-    progress.set_length((setup.variants.len() * pairs.len()) as u64);
     let close = setup.close_start_variants()?;
+    let methods = setup.methods(&close);
+    progress.set_length((methods.len() * pairs.len()) as u64);
     let plan = runner::RunPlan {
         chain: &setup.init,
         global: &setup.global,
         check: setup.global_check == GlobalChecks::On,
-        close: &close,
     };
-    let mut runs = runner::run_all(ds, &pairs, &setup.variants, &plan, progress);
+    let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
     if setup.covariance == consistency::CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
@@ -129,10 +132,11 @@ pub fn checked_pairs(
             scans: ds.scans.len(),
         });
     }
-    for (i, v) in setup.variants.iter().enumerate() {
-        icp_core::variants::check_name(v.name())?;
-        if setup.variants[..i].iter().any(|o| o.name() == v.name()) {
-            return Err(EvalError::DuplicateName(v.name().to_owned()));
+    let names = setup.method_names();
+    for (i, name) in names.iter().enumerate() {
+        icp_core::variants::check_name(name)?;
+        if names[..i].contains(name) {
+            return Err(EvalError::DuplicateName((*name).to_owned()));
         }
     }
     setup.init.check(ds)?;

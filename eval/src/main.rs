@@ -10,6 +10,7 @@ use datasets::{marina, Dataset, DatasetSource};
 use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::consistency::CovarianceMode;
+use eval::estimates::EstimatesSpec;
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
 use eval::merge::MergedRun;
@@ -251,6 +252,12 @@ struct RunArgs {
     /// modes).
     #[arg(long, default_value = "closed-form")]
     covariance: CovarianceMode,
+    /// Another estimator's results, evaluated after the variants like one more variant:
+    /// NAME=FILE, the file TUM poses per scan (`timestamp x y z qx qy qz qw`, matched to the
+    /// scans' times within 1 ms) or a CSV of per-pair motions
+    /// (`source,reference,tx_m,ty_m,theta_deg`, t_ref_src as in pairs.csv). Repeatable.
+    #[arg(long)]
+    estimates: Vec<EstimatesSpec>,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -278,6 +285,7 @@ impl RunArgs {
             global_check: self.global_check,
             start_gate: self.start_gate,
             covariance: self.covariance,
+            estimates: self.estimates.clone(),
         })
     }
 
@@ -631,7 +639,7 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
         let work = Work::Run(args.run_options()?);
         return run_shard_cmd(&ds, specs, work, shard, &args.out, &args.common);
     }
-    let setup = args.run_options()?.setup(&specs)?;
+    let setup = args.run_options()?.setup(&specs, &ds)?;
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -663,7 +671,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         };
         return run_shard_cmd(&ds, variants, work, shard, &run.out, &run.common);
     }
-    let setup = run.run_options()?.setup(&variants)?;
+    let setup = run.run_options()?.setup(&variants, &ds)?;
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     write_compare(&mut dir, &report, &options)?;
     if let Some(SweepPlan { param, values }) = sweep {
@@ -823,7 +831,7 @@ fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
             plan.dataset.content_sha256
         );
     }
-    let setups = plan.setups()?;
+    let setups = plan.setups(&ds)?;
     let mut dir =
         OutputDir::open(&args.out, args.common.force).context("opening the output directory")?;
     let plots = !args.common.no_plots;
@@ -839,7 +847,7 @@ fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
             bail!("run {i} of the plan holds basin rows");
         };
         let (pairs, skipped) = eval::checked_pairs(&ds, &setups[i])?;
-        eval::merge::check_shape(runs, setups[i].variants.len(), pairs.len())
+        eval::merge::check_shape(runs, setups[i].method_names().len(), pairs.len())
             .map_err(anyhow::Error::msg)
             .with_context(|| format!("run {i} of the merged plan"))?;
         Ok(eval::report::build(&ds, &pairs, skipped, &setups[i], runs))

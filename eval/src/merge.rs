@@ -256,12 +256,13 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
     let basin = matches!(plan.work, Work::Basin(_));
     let runs = runs
         .into_iter()
-        .map(|r| {
+        .enumerate()
+        .map(|(i, r)| {
             r.unwrap_or_else(|| {
                 if basin {
                     MergedRun::Basin(Vec::new())
                 } else {
-                    MergedRun::Runs(empty_runs(plan.variants.len()))
+                    MergedRun::Runs(empty_runs(plan.methods(i)))
                 }
             })
         })

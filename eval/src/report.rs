@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bound::{self, BoundSummary, OverBound, PairBound};
 use crate::consistency::{self, ConsistencySummary, CovarianceMode};
+use crate::estimates::{ExternalEstimates, ExternalSource};
 use crate::evo::{EvoMetrics, ReferenceTum};
 use crate::init::{InitChain, InitMode};
 use crate::outcome::{self, FlagQuality};
@@ -66,14 +67,17 @@ pub struct PairRecord {
     /// Whether every variant of the run registered the pair (flagged or not): the statistics
     /// of every variant are taken over these pairs only, so they compare.
     pub all_registered: bool,
-    /// The initial-guess mode whose start gave this registration.
-    pub init: InitMode,
-    /// Registrations made along the init chain for this one (the last is kept).
+    /// The initial-guess mode whose start gave this registration (empty: an external
+    /// estimate, not started here).
+    pub init: Option<InitMode>,
+    /// Registrations made along the init chain for this one (the last is kept; 0 for an
+    /// external estimate).
     pub init_attempts: usize,
-    /// Whether the mean pair distance settled.
-    pub converged: bool,
-    /// Minimisation steps.
-    pub iterations: usize,
+    /// Whether the mean pair distance settled (empty: not registered, or an external
+    /// estimate, which is not iterated here).
+    pub converged: Option<bool>,
+    /// Minimisation steps (empty: not registered, or an external estimate).
+    pub iterations: Option<usize>,
     /// Pairs the metric used at the solution.
     pub n_pairs: usize,
     /// Pairs the metric could not use at the solution (no surface estimate, beyond its gate).
@@ -177,8 +181,8 @@ pub struct PairRecord {
     #[serde(default)]
     pub nees: Option<f64>,
     /// Wall time of the registration, its scans' surface estimates aside, µs (not
-    /// reproducible; last column so checks can drop it).
-    pub time_us: f64,
+    /// reproducible; last column so checks can drop it; empty for an external estimate).
+    pub time_us: Option<f64>,
 }
 
 /// Error statistics over one set of pairs.
@@ -267,12 +271,13 @@ pub struct VariantSummary {
     /// their numbers stay in the statistics).
     #[serde(default)]
     pub suspect_pairs: Vec<usize>,
-    /// Fraction of the registered pairs that converged.
-    pub converged_fraction: f64,
-    /// Mean iterations.
-    pub iterations_mean: f64,
-    /// Largest iteration count.
-    pub iterations_max: usize,
+    /// Fraction of the registered pairs that converged (`None` for an external estimator:
+    /// nothing is iterated here).
+    pub converged_fraction: Option<f64>,
+    /// Mean iterations (`None` for an external estimator).
+    pub iterations_mean: Option<f64>,
+    /// Largest iteration count (`None` for an external estimator).
+    pub iterations_max: Option<usize>,
     /// Over the pairs every variant registered (flagged ones included) that have a reference.
     pub all_pairs: ErrorStats,
     /// Over those of them whose reference step is plausible.
@@ -415,6 +420,10 @@ pub struct RunConfig {
     /// Where each registration's covariance came from.
     #[serde(default)]
     pub covariance: CovarianceMode,
+    /// The external estimators evaluated after the variants (`--estimates`), with their
+    /// files' SHA-256 (see [`crate::estimates`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub estimates: Vec<ExternalSource>,
 }
 
 /// The whole run.
@@ -478,6 +487,9 @@ pub struct EvalSetup {
     pub start_gate: StartGate,
     /// Where each registration's covariance comes from.
     pub covariance: CovarianceMode,
+    /// Estimates made elsewhere, evaluated after the variants like one more variant each
+    /// (see [`crate::estimates`]).
+    pub estimates: Vec<ExternalEstimates>,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -507,7 +519,37 @@ impl EvalSetup {
             global_check: GlobalChecks::Off,
             start_gate: StartGate::default(),
             covariance: CovarianceMode::Off,
+            estimates: Vec::new(),
         })
+    }
+
+    /// The same setup with the external estimates `estimates` (evaluated after the variants).
+    pub fn with_estimates(mut self, estimates: Vec<ExternalEstimates>) -> Self {
+        self.estimates = estimates;
+        self
+    }
+
+    /// The methods the runner runs: the variants (with `close`, their close-start twins from
+    /// [`Self::close_start_variants`]), then the external estimates.
+    pub fn methods<'a>(
+        &'a self,
+        close: &'a [Option<Box<dyn Registrar>>],
+    ) -> crate::runner::Methods<'a> {
+        crate::runner::Methods {
+            registrars: &self.variants,
+            close,
+            external: &self.estimates,
+        }
+    }
+
+    /// The names of the methods, in the order of their results: the variants, then the
+    /// external estimators.
+    pub fn method_names(&self) -> Vec<&str> {
+        self.variants
+            .iter()
+            .map(|v| v.name())
+            .chain(self.estimates.iter().map(|e| e.source.name.as_str()))
+            .collect()
     }
 
     /// The same setup with the correspondence gate `gate` of registrations started at the
@@ -620,11 +662,12 @@ pub fn build(
     };
     let ref0 = ref_at(0);
     // The offset is estimated from the per-pair median of the variants' estimates: no variant
-    // is singled out by name, and one variant's failures do not move it.
+    // is singled out by name, and one variant's failures do not move it. External estimates
+    // are left out: adding one changes no built-in variant's figures through the offset.
     let series = |f: &dyn Fn(&MovementParams) -> f64| -> Vec<f64> {
         (0..pairs.len())
             .map(|i| {
-                let mut v: Vec<f64> = estimates
+                let mut v: Vec<f64> = estimates[..setup.variants.len()]
                     .iter()
                     .filter_map(|e| e[i].as_ref().map(f))
                     .collect();
@@ -681,13 +724,16 @@ pub fn build(
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();
-    for (vi, variant) in setup.variants.iter().enumerate() {
+    for (vi, name) in setup.method_names().into_iter().enumerate() {
         let mut rows = Vec::with_capacity(pairs.len());
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
-        let inflation = consistency::closed_form_inflation(&variant.spec().metric);
+        // An external estimate has no covariance: no inflation of one.
+        let inflation = setup.variants.get(vi).map_or(1.0, |v| {
+            consistency::closed_form_inflation(&v.spec().metric)
+        });
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
-                variant.name(),
+                name,
                 i,
                 *pair,
                 dts[i],
@@ -709,7 +755,7 @@ pub fn build(
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
         summaries.push(summarize(
-            variant.name(),
+            name,
             &rows,
             &runs[vi],
             ds,
@@ -764,6 +810,7 @@ pub fn build(
             global_check: setup.global_check,
             start_gate: setup.start_gate,
             covariance: setup.covariance,
+            estimates: setup.estimates.iter().map(|e| e.source.clone()).collect(),
             start_gated: setup
                 .close_start_specs()
                 .unwrap_or_default()
@@ -864,8 +911,8 @@ fn record(
         all_registered,
         init: run.init,
         init_attempts: run.attempts,
-        converged: reg.is_some_and(|r| r.converged()),
-        iterations: reg.map_or(0, |r| r.iterations),
+        converged: reg.filter(|r| r.iterated()).map(|r| r.converged()),
+        iterations: reg.filter(|r| r.iterated()).map(|r| r.iterations),
         n_pairs: reg.map_or(0, |r| r.n_pairs),
         n_unusable: reg.map_or(0, |r| r.n_unusable),
         weight_sum: reg.map(|r| r.weight_sum),
@@ -937,7 +984,7 @@ fn summarize(
     // Every variant's figures over the same pairs: those every variant registered.
     let common: Vec<&PairRecord> = rows.iter().filter(|r| r.all_registered).collect();
     let with_ref = common.iter().copied().filter(|r| r.sog_ref_mps.is_some());
-    let times: Vec<f64> = runs.iter().map(|r| r.time_us).collect();
+    let times: Vec<f64> = runs.iter().filter_map(|r| r.time_us).collect();
     let failures: Vec<Failure> = runs
         .iter()
         .enumerate()
@@ -949,13 +996,31 @@ fn summarize(
         })
         .collect();
     let fraction = |n: usize, of: usize| if of == 0 { 0.0 } else { n as f64 / of as f64 };
+    // An external estimator's runs are not started here (and not iterated).
+    let iterated = runs.iter().any(|r| r.init.is_some());
     VariantSummary {
         name: name.to_owned(),
         pairs_ok: ok,
         failure_rate: fraction(rows.len() - ok, rows.len()),
-        converged_fraction: fraction(common.iter().filter(|r| r.converged).count(), common.len()),
-        iterations_mean: fraction(common.iter().map(|r| r.iterations).sum(), common.len()),
-        iterations_max: common.iter().map(|r| r.iterations).max().unwrap_or(0),
+        converged_fraction: iterated.then(|| {
+            fraction(
+                common.iter().filter(|r| r.converged == Some(true)).count(),
+                common.len(),
+            )
+        }),
+        iterations_mean: iterated.then(|| {
+            fraction(
+                common.iter().filter_map(|r| r.iterations).sum(),
+                common.len(),
+            )
+        }),
+        iterations_max: iterated.then(|| {
+            common
+                .iter()
+                .filter_map(|r| r.iterations)
+                .max()
+                .unwrap_or(0)
+        }),
         all_pairs: error_stats(with_ref.clone()),
         plausible_reference: error_stats(with_ref.filter(|r| r.ref_plausible)),
         success_rate: outcome::success_rate(rows, rigid),

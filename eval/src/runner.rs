@@ -4,8 +4,11 @@
 //! (a scan shared with the next block is kept), so memory follows the block, not the dataset.
 //! Within a block rayon runs the pairs, each pair's variants one after the other in one
 //! workspace. Results are collected by index, so they do not depend on the thread count.
+//! External estimates ([`crate::estimates`]) run as methods too: each pair's estimate is
+//! assessed at its pose ([`icp_core::assess`]) and checked like a registration.
 
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
@@ -18,6 +21,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
+use crate::estimates::ExternalEstimates;
 use crate::init::{self, InitChain, InitMode, Previous};
 use crate::status::{GlobalCheck, PairStatus};
 
@@ -31,14 +35,16 @@ pub struct PairRun {
     pub status: PairStatus,
     /// What the pair's global search says about the result, when results are checked.
     pub check: Option<GlobalCheck>,
-    /// The initial-guess mode whose start gave the result kept.
-    pub init: InitMode,
-    /// Registrations made along the init chain (the result kept is the last of them).
+    /// The initial-guess mode whose start gave the result kept (`None`: an external
+    /// estimate, not started here).
+    pub init: Option<InitMode>,
+    /// Registrations made along the init chain (the result kept is the last of them; 0 for
+    /// an external estimate).
     pub attempts: usize,
     /// Wall time of the registrations made along the init chain, their scans' surface
     /// estimates and the pair's global search aside, microseconds (not reproducible: kept
-    /// apart).
-    pub time_us: f64,
+    /// apart; `None` for an external estimate, whose time is not known here).
+    pub time_us: Option<f64>,
 }
 
 /// The global search of one pair (made once, shared by every variant).
@@ -54,7 +60,8 @@ pub struct PairSearch {
 /// Every registration of a run.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Runs {
-    /// `per_variant[variant][pair]`.
+    /// `per_variant[method][pair]`, the methods in [`Methods`]' order (the registrars, then
+    /// the external estimates).
     pub per_variant: Vec<Vec<PairRun>>,
     /// Per scan that takes part in a pair, the wall time of its surface estimates (all the
     /// parameter sets the variants use), microseconds: made once, shared by every variant and
@@ -74,10 +81,6 @@ pub struct RunPlan<'a> {
     pub global: &'a GlobalParams,
     /// Whether every result is checked against the pair's global search.
     pub check: bool,
-    /// Per registrar (same order), the one a close start (the global search's pose, the
-    /// reference) uses instead, when such starts gate their correspondences
-    /// ([`crate::start_gate`]); empty: none does.
-    pub close: &'a [Option<Box<dyn Registrar>>],
 }
 
 impl RunPlan<'_> {
@@ -85,9 +88,62 @@ impl RunPlan<'_> {
     fn searches(&self) -> bool {
         self.check || self.chain.global()
     }
+}
 
-    /// The registrar a close start of variant `v` uses, when it is another one.
-    fn gated(&self, v: usize) -> Option<&dyn Registrar> {
+/// The methods a run evaluates, in the order of their results: the registrars, then the
+/// external estimates.
+#[derive(Clone, Copy)]
+pub struct Methods<'a> {
+    /// The registration methods.
+    pub registrars: &'a [Box<dyn Registrar>],
+    /// Per registrar (same order), the one a close start (the global search's pose, the
+    /// reference) uses instead, when such starts gate their correspondences
+    /// ([`crate::start_gate`]); empty: none does.
+    pub close: &'a [Option<Box<dyn Registrar>>],
+    /// Estimates made elsewhere, per pair of the run.
+    pub external: &'a [ExternalEstimates],
+}
+
+impl<'a> Methods<'a> {
+    /// The registrars alone, none gated.
+    pub fn registrars(registrars: &'a [Box<dyn Registrar>]) -> Self {
+        Self {
+            registrars,
+            close: &[],
+            external: &[],
+        }
+    }
+
+    /// How many methods.
+    pub fn len(&self) -> usize {
+        self.registrars.len() + self.external.len()
+    }
+
+    /// True without any method.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Methods `range` (numbered in result order), each with its own gated twin: what a shard
+    /// that runs some methods runs.
+    pub fn slice(&self, range: Range<usize>) -> Self {
+        let n = self.registrars.len();
+        let clip = |r: &Range<usize>, len: usize| r.start.min(len)..r.end.min(len);
+        let registrars = clip(&range, n);
+        let external = range.start.saturating_sub(n)..range.end.saturating_sub(n);
+        Self {
+            registrars: &self.registrars[registrars.clone()],
+            close: if self.close.is_empty() {
+                &[]
+            } else {
+                &self.close[registrars]
+            },
+            external: &self.external[clip(&external, self.external.len())],
+        }
+    }
+
+    /// The registrar a close start of registrar `v` uses, when it is another one.
+    fn gated(&self, v: usize) -> Option<&'a dyn Registrar> {
         self.close.get(v).and_then(|r| r.as_deref())
     }
 }
@@ -159,11 +215,11 @@ impl PreparedScans<'_> {
 pub fn run_all(
     ds: &Dataset,
     pairs: &[ScanPair],
-    registrars: &[Box<dyn Registrar>],
+    methods: Methods<'_>,
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
 ) -> Runs {
-    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS, 0)
+    run_blocks(ds, pairs, methods, plan, progress, BLOCK_PAIRS, 0)
 }
 
 /// [`run_all`] over `pairs`, the run's pairs from position `first` on (a shard of a run,
@@ -173,11 +229,11 @@ pub fn run_from(
     ds: &Dataset,
     pairs: &[ScanPair],
     first: usize,
-    registrars: &[Box<dyn Registrar>],
+    methods: Methods<'_>,
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
 ) -> Runs {
-    run_blocks(ds, pairs, registrars, plan, progress, BLOCK_PAIRS, first)
+    run_blocks(ds, pairs, methods, plan, progress, BLOCK_PAIRS, first)
 }
 
 /// A pair's global search with the reference's likelihood grid, which scores the results.
@@ -260,30 +316,77 @@ impl BlockJob<'_> {
             let clock = Instant::now();
             let result = chosen.register_prepared(workspace, source, reference, start);
             time_us += clock.elapsed().as_secs_f64() * 1e6;
-            let check = match (&result, searched) {
-                (Ok(r), Some(s)) if self.plan.check => Some(GlobalCheck {
-                    best_t_ref_src: s.guess.t_ref_src,
-                    best_score: s.guess.score,
-                    result_t_ref_src: r.t_ref_src,
-                    result_score: score_at(s.matcher.grid(), source.scan, &r.t_ref_src),
-                }),
-                _ => None,
-            };
+            let check = self.check(&result, searched, source.scan);
             let status = PairStatus::of(&result, check.as_ref());
             let done = !status.is_failure();
             kept = Some(PairRun {
                 result,
                 status,
                 check,
-                init: used,
+                init: Some(used),
                 attempts: attempt + 1,
-                time_us,
+                time_us: Some(time_us),
             });
             if done {
                 break;
             }
         }
         kept.expect("a chain has at least one mode")
+    }
+
+    /// What the pair's global search says about `result` of the source scan `source`, when
+    /// results are checked.
+    fn check(
+        &self,
+        result: &Result<Registration, IcpError>,
+        searched: Option<&Searched>,
+        source: &icp_core::Scan,
+    ) -> Option<GlobalCheck> {
+        match (result, searched) {
+            (Ok(r), Some(s)) if self.plan.check => Some(GlobalCheck {
+                best_t_ref_src: s.guess.t_ref_src,
+                best_score: s.guess.score,
+                result_t_ref_src: r.t_ref_src,
+                result_score: score_at(s.matcher.grid(), source, &r.t_ref_src),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The external estimate of the pair at `position` in the run, assessed at its pose and
+    /// checked as a registration is; a pair the file has no estimate for is a failure of
+    /// the estimator.
+    fn assess(
+        &self,
+        external: &ExternalEstimates,
+        position: usize,
+        pair: ScanPair,
+        searched: Option<&Searched>,
+    ) -> PairRun {
+        let params = SurfaceParams::default();
+        let prepared_scan =
+            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+        let source = prepared_scan(pair.source);
+        let result = match external.per_pair.get(position).copied().flatten() {
+            Some(t_ref_src) => icp_core::assess(source, prepared_scan(pair.reference), t_ref_src),
+            None => Err(IcpError::NoEstimate {
+                why: format!(
+                    "{} has none for scans {} → {}",
+                    external.source.path.display(),
+                    pair.source,
+                    pair.reference
+                ),
+            }),
+        };
+        let check = self.check(&result, searched, source.scan);
+        PairRun {
+            status: PairStatus::of(&result, check.as_ref()),
+            result,
+            check,
+            init: None,
+            attempts: 0,
+            time_us: None,
+        }
     }
 }
 
@@ -292,18 +395,21 @@ impl BlockJob<'_> {
 fn run_blocks(
     ds: &Dataset,
     pairs: &[ScanPair],
-    registrars: &[Box<dyn Registrar>],
+    methods: Methods<'_>,
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
     block_pairs: usize,
     first: usize,
 ) -> Runs {
     let searches = plan.searches();
+    let registrars = methods.registrars;
+    // The searches and the external estimates' assessment use the default surfaces.
+    let default_surfaces = searches || !methods.external.is_empty();
     let params = distinct_surface_params(
         registrars
             .iter()
             .map(|r| r.surface_params())
-            .chain(searches.then(SurfaceParams::default)),
+            .chain(default_surfaces.then(SurfaceParams::default)),
     );
     let mut prepared = PreparedScans {
         params: &params,
@@ -312,8 +418,7 @@ fn run_blocks(
     let mut prepare_us = Vec::new();
     let mut pair_searches = Vec::new();
     let n = registrars.len();
-    let mut per_variant: Vec<Vec<PairRun>> = registrars
-        .iter()
+    let mut per_variant: Vec<Vec<PairRun>> = (0..methods.len())
         .map(|_| Vec::with_capacity(pairs.len()))
         .collect();
     for (b, block) in pairs.chunks(block_pairs).enumerate() {
@@ -322,6 +427,19 @@ fn run_blocks(
             ds,
             prepared: &prepared,
             plan,
+        };
+        let position = |i: usize| first + b * block_pairs + i;
+        // The external estimates of one pair, after its registrations.
+        let assess_all = |i: usize, pair: ScanPair, searched: Option<&Searched>| {
+            methods
+                .external
+                .iter()
+                .map(|e| {
+                    let run = job.assess(e, position(i), pair, searched);
+                    progress.inc(1);
+                    run
+                })
+                .collect::<Vec<PairRun>>()
         };
         if plan.chain.sequential() {
             // A start depends on the same variant's previous result: the pairs' searches are
@@ -352,7 +470,7 @@ fn run_blocks(
                         .map(|&pair| {
                             let searched = searches.then(|| job.search(pair, &mut gws).0).flatten();
                             let run = job.run(
-                                (reg.as_ref(), plan.gated(v)),
+                                (reg.as_ref(), methods.gated(v)),
                                 &mut workspace,
                                 pair,
                                 previous.as_ref(),
@@ -368,6 +486,21 @@ fn run_blocks(
             for (variant, block_runs) in per_variant.iter_mut().zip(runs) {
                 variant.extend(block_runs);
             }
+            if !methods.external.is_empty() {
+                let assessed: Vec<Vec<PairRun>> = block
+                    .par_iter()
+                    .enumerate()
+                    .map_init(GlobalWorkspace::default, |gws, (i, &pair)| {
+                        let searched = searches.then(|| job.search(pair, gws).0).flatten();
+                        assess_all(i, pair, searched.as_ref())
+                    })
+                    .collect();
+                for pair_runs in assessed {
+                    for (variant, run) in per_variant[n..].iter_mut().zip(pair_runs) {
+                        variant.push(run);
+                    }
+                }
+            }
             continue;
         }
         let runs: Vec<(Vec<PairRun>, Option<PairSearch>)> = block
@@ -378,7 +511,6 @@ fn run_blocks(
             .map_init(
                 || (Workspace::default(), GlobalWorkspace::default()),
                 |(workspace, gws), (i, &pair)| {
-                    let position = first + b * block_pairs + i;
                     let (searched, search) = if searches {
                         let (s, info) = job.search(pair, gws);
                         (s, Some(info))
@@ -391,12 +523,12 @@ fn run_blocks(
                     // its own order, so every variant comes first in its group equally often
                     // and the timings compare.
                     let mut order: Vec<usize> = (0..n).collect();
-                    order.shuffle(&mut ChaCha8Rng::seed_from_u64(position as u64));
+                    order.shuffle(&mut ChaCha8Rng::seed_from_u64(position(i) as u64));
                     let mut runs: Vec<(usize, PairRun)> = order
                         .into_iter()
                         .map(|v| {
                             let run = job.run(
-                                (registrars[v].as_ref(), plan.gated(v)),
+                                (registrars[v].as_ref(), methods.gated(v)),
                                 workspace,
                                 pair,
                                 None,
@@ -407,7 +539,9 @@ fn run_blocks(
                         })
                         .collect();
                     runs.sort_by_key(|(v, _)| *v);
-                    (runs.into_iter().map(|(_, run)| run).collect(), search)
+                    let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
+                    runs.extend(assess_all(i, pair, searched.as_ref()));
+                    (runs, search)
                 },
             )
             .collect();
@@ -492,12 +626,12 @@ mod tests {
             chain: &chain,
             global: &GlobalParams::default(),
             check: true,
-            close: &[],
         };
-        let whole = run_blocks(&ds, &pairs, &registrars, &plan, &progress, BLOCK_PAIRS, 0);
+        let methods = Methods::registrars(&registrars);
+        let whole = run_blocks(&ds, &pairs, methods, &plan, &progress, BLOCK_PAIRS, 0);
         assert_eq!(whole.per_variant[0].len(), pairs.len());
         for block_pairs in [1, 2, 5] {
-            let blocks = run_blocks(&ds, &pairs, &registrars, &plan, &progress, block_pairs, 0);
+            let blocks = run_blocks(&ds, &pairs, methods, &plan, &progress, block_pairs, 0);
             assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
             // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
             // holds only the scans it shares with the block before (scan 10).

@@ -44,6 +44,7 @@ use sha2::{Digest, Sha256};
 use crate::basin::{BasinOptions, BasinRow};
 use crate::compare::CompareOptions;
 use crate::consistency::CovarianceMode;
+use crate::estimates::EstimatesSpec;
 use crate::init::InitChain;
 use crate::report::{EvalSetup, GlobalChecks, OffsetChoice};
 use crate::runner::Runs;
@@ -435,17 +436,28 @@ pub struct RunOptions {
     /// Where each registration's covariance comes from.
     #[serde(default)]
     pub covariance: CovarianceMode,
+    /// External estimates evaluated after the variants, with their files' SHA-256.
+    #[serde(default)]
+    pub estimates: Vec<EstimatesSpec>,
 }
 
 impl RunOptions {
-    /// The setup of a run of `variants` with these options.
-    pub fn setup(&self, variants: &[VariantSpec]) -> Result<EvalSetup, EvalError> {
+    /// The setup of a run of `variants` on `ds` with these options (the external estimates
+    /// read for the pairs of `ds`, each file checked against its recorded SHA-256).
+    pub fn setup(&self, variants: &[VariantSpec], ds: &Dataset) -> Result<EvalSetup, EvalError> {
+        let (pairs, _) = ds.consecutive_pairs();
+        let estimates = self
+            .estimates
+            .iter()
+            .map(|e| e.load(ds, &pairs))
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(EvalSetup::from_specs(variants, self.offset)?
             .with_reference_checks(self.reference_checks)
             .with_init(self.init.clone())
             .with_global(self.global, self.global_check)
             .with_start_gate(self.start_gate)
-            .with_covariance(self.covariance))
+            .with_covariance(self.covariance)
+            .with_estimates(estimates))
     }
 }
 
@@ -517,7 +529,7 @@ impl Plan {
                 units: crate::basin::chosen_pairs(ds, options).len(),
             }],
             Work::Run(run) | Work::Compare { run, .. } => {
-                let setups = plan.setups()?;
+                let setups = plan.setups(ds)?;
                 let (pairs, _) = crate::checked_pairs(ds, &setups[0])?;
                 let sequential = run.init.sequential();
                 setups
@@ -529,7 +541,7 @@ impl Plan {
                             Cut::Pairs
                         },
                         units: if sequential {
-                            s.variants.len()
+                            s.method_names().len()
                         } else {
                             pairs.len()
                         },
@@ -540,16 +552,29 @@ impl Plan {
         Ok(plan)
     }
 
+    /// How many methods run `run` of the plan has: its variants, and in the first run (not a
+    /// sweep's) the external estimates.
+    pub fn methods(&self, run: usize) -> usize {
+        let external = match &self.work {
+            Work::Run(options) | Work::Compare { run: options, .. } if run == 0 => {
+                options.estimates.len()
+            }
+            _ => 0,
+        };
+        self.variants.len() + external
+    }
+
     /// SHA-256 of the plan's canonical JSON, hex.
     pub fn fingerprint(&self) -> Result<String, EvalError> {
         let json = serde_json::to_vec(self).map_err(|e| EvalError::Serialize(e.to_string()))?;
         Ok(hex(&Sha256::digest(&json)))
     }
 
-    /// The setup of each run of the plan, in order (a basin's one, with the alignment it
-    /// uses).
-    pub fn setups(&self) -> Result<Vec<EvalSetup>, EvalError> {
-        let base = |run: &RunOptions| run.setup(&self.variants);
+    /// The setup of each run of the plan on `ds`, in order (a basin's one, with the
+    /// alignment it uses). A sweep's runs have no external estimates: they do not move with
+    /// the parameter.
+    pub fn setups(&self, ds: &Dataset) -> Result<Vec<EvalSetup>, EvalError> {
+        let base = |run: &RunOptions| run.setup(&self.variants, ds);
         match &self.work {
             Work::Run(run) => Ok(vec![base(run)?]),
             Work::Compare { run, sweep, .. } => {
@@ -618,7 +643,7 @@ pub fn run_shard(
     command_line: Vec<String>,
     progress: &indicatif::ProgressBar,
 ) -> Result<Part, EvalError> {
-    let setups = plan.setups()?;
+    let setups = plan.setups(ds)?;
     let mut out = Vec::new();
     for slice in slices(&plan.runs, shard) {
         let setup = &setups[slice.run];
@@ -643,30 +668,31 @@ pub fn run_shard(
             Work::Run(_) | Work::Compare { .. } => {
                 let (pairs, _) = crate::checked_pairs(ds, setup)?;
                 let close = setup.close_start_variants()?;
+                let methods = setup.methods(&close);
                 let run_plan = crate::runner::RunPlan {
                     chain: &setup.init,
                     global: &setup.global,
                     check: setup.global_check == GlobalChecks::On,
-                    close: &close,
                 };
                 let runs = match plan.runs[slice.run].cut {
                     Cut::Pairs => {
-                        progress.inc_length((setup.variants.len() * slice.units.len()) as u64);
+                        progress.inc_length((methods.len() * slice.units.len()) as u64);
                         crate::runner::run_from(
                             ds,
                             &pairs[slice.units.clone()],
                             slice.units.start,
-                            &setup.variants,
+                            methods,
                             &run_plan,
                             progress,
                         )
                     }
                     Cut::Variants => {
                         progress.inc_length((pairs.len() * slice.units.len()) as u64);
+                        // Each method with its own close-start twin.
                         let mut runs = crate::runner::run_all(
                             ds,
                             &pairs,
-                            &setup.variants[slice.units.clone()],
+                            methods.slice(slice.units.clone()),
                             &run_plan,
                             progress,
                         );

@@ -62,7 +62,7 @@ fn a_tum_file_of_the_reference_gives_the_true_motions_and_a_missing_scan_fails_i
     for (p, m) in pairs.iter().zip(&e.per_pair) {
         assert_same(&m.unwrap(), &truth(&ds, *p));
     }
-    assert_eq!(e.sha256.len(), 64);
+    assert_eq!(e.source.sha256.len(), 64);
     // Scan 5's line removed: pairs 4→5 and 5→6 have no estimate, every other pair keeps its.
     let text = std::fs::read_to_string(&path).unwrap();
     let cut: String = text

@@ -55,7 +55,7 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
         rows[2].status == StatusKind::Failed
             && rows[2].status_reason.contains("collinear")
             && rows[2].sog_est_mps.is_none()
-            && !rows[2].converged
+            && rows[2].converged.is_none()
     );
     assert_eq!(rows[4].status, StatusKind::Ok);
     assert!(rows[4].status_reason.is_empty());
@@ -186,6 +186,7 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
         global_check: Default::default(),
         start_gate: Default::default(),
         covariance: Default::default(),
+        estimates: Vec::new(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.population.pairs, 6);

@@ -34,7 +34,7 @@ fn better_starts_take_fewer_iterations_on_the_synthetic_harbour() {
         assert!(r.variants.iter().all(|v| v.failure_rate == 0.0), "{init}");
         r.variants
             .iter()
-            .map(|v| v.iterations_mean)
+            .map(|v| v.iterations_mean.unwrap())
             .collect::<Vec<_>>()
     };
     let (identity, cv, reference) = (
@@ -52,7 +52,7 @@ fn better_starts_take_fewer_iterations_on_the_synthetic_harbour() {
     }
     assert!(cv[0] < 0.8 * identity[0], "{cv:?} vs {identity:?}");
     let r = run(&ds, &["HD_ICP"], "constant-velocity").unwrap();
-    let inits: Vec<InitMode> = r.pairs.iter().map(|p| p.init).collect();
+    let inits: Vec<InitMode> = r.pairs.iter().map(|p| p.init.unwrap()).collect();
     assert_eq!(
         inits[0],
         InitMode::Identity,
@@ -84,11 +84,11 @@ fn a_constant_velocity_chain_resets_after_a_flagged_pair() {
     assert_ne!(row(3).status, StatusKind::Ok);
     assert_eq!(
         row(4).init,
-        InitMode::Identity,
+        Some(InitMode::Identity),
         "reset after a flagged pair"
     );
-    assert_eq!(row(5).init, InitMode::ConstantVelocity);
-    assert_eq!(row(1).init, InitMode::ConstantVelocity);
+    assert_eq!(row(5).init, Some(InitMode::ConstantVelocity));
+    assert_eq!(row(1).init, Some(InitMode::ConstantVelocity));
 
     let chained = run(&ds, &["HD_ICP"], "constant-velocity,identity").unwrap();
     for (i, p) in chained.pairs.iter().enumerate() {
@@ -103,7 +103,7 @@ fn a_constant_velocity_chain_resets_after_a_flagged_pair() {
         chained.pairs[2].init_attempts, 2,
         "the flagged pair tried the identity too"
     );
-    assert_eq!(chained.pairs[2].init, InitMode::Identity);
+    assert_eq!(chained.pairs[2].init, Some(InitMode::Identity));
 }
 
 /// Constant-velocity runs each variant's pairs in order; the results must still not depend
@@ -215,7 +215,7 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
     );
     let global = run("global");
     let row = &global.pairs[0];
-    assert_eq!(row.init, InitMode::Global);
+    assert_eq!(row.init, Some(InitMode::Global));
     assert!(
         row.trans_err_m.unwrap() < 0.01 && row.rot_err_deg.unwrap().abs() < 0.1,
         "{row:?}"
@@ -224,7 +224,7 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
     assert_eq!(global.variants[0].success_rate, Some(1.0));
     // A chain falls back to the global start where the identity's result is flagged.
     let chained = run("identity,global");
-    assert_eq!(chained.pairs[0].init, InitMode::Global);
+    assert_eq!(chained.pairs[0].init, Some(InitMode::Global));
     assert_eq!(chained.pairs[0].init_attempts, 2);
 }
 
@@ -275,7 +275,7 @@ fn a_global_start_gates_the_surface_metrics() {
     let ungated = run("off");
     assert!(ungated.config.start_gated.is_empty());
     let err = |r: &RunReport| r.pairs[0].trans_err_m.unwrap();
-    assert_eq!(gated.pairs[0].init, InitMode::Global);
+    assert_eq!(gated.pairs[0].init, Some(InitMode::Global));
     assert!(err(&gated) < 1e-3, "gated: {:?}", gated.pairs[0]);
     assert!(
         err(&ungated) > 5.0 * err(&gated).max(1e-4),
@@ -356,13 +356,13 @@ fn an_odometry_start_takes_the_odometry_and_needs_an_independent_one() {
     ds.odometry = Some(slipped.clone());
     let ds = ds.checked();
     let r = run(&ds, &["HD_ICP", "HD_GICP"], "odometry").unwrap();
-    assert!(r.pairs.iter().all(|p| p.init == InitMode::Odometry));
+    assert!(r.pairs.iter().all(|p| p.init == Some(InitMode::Odometry)));
     let identity = run(&ds, &["HD_ICP", "HD_GICP"], "identity").unwrap();
     for v in 0..2 {
         // Started 2 cm from the truth rather than a whole step (0.24 m) away.
         assert!(
             r.variants[v].iterations_mean < identity.variants[v].iterations_mean,
-            "{}: odometry {} vs identity {} iterations",
+            "{}: odometry {:?} vs identity {:?} iterations",
             r.variants[v].name,
             r.variants[v].iterations_mean,
             identity.variants[v].iterations_mean

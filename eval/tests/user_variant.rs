@@ -37,6 +37,7 @@ fn a_user_variant_runs_compares_and_describes_itself() {
         global_check: Default::default(),
         start_gate: Default::default(),
         covariance: Default::default(),
+        estimates: Vec::new(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.variants[1].name, "RA_ICP");

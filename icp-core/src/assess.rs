@@ -115,7 +115,10 @@ mod tests {
         let (source, reference) = (room(Isometry2::identity()), room(motion));
         let (s, r) = (surfaces(&source), surfaces(&reference));
         let pl = builtin("PL_ICP").unwrap();
-        assert_eq!(pl.selection.kind, "all", "the oracle needs every return selected");
+        assert_eq!(
+            pl.selection.kind, "all",
+            "the oracle needs every return selected"
+        );
         let reg = pl
             .build()
             .unwrap()
@@ -149,15 +152,31 @@ mod tests {
         let motion = Isometry2::new(Vector2::new(0.5, 0.0), 0.0);
         let (source, reference) = (corridor(Isometry2::identity()), corridor(motion));
         let (s, r) = (surfaces(&source), surfaces(&reference));
-        let at = |pose| assess(Prepared::new(&source, &s), Prepared::new(&reference, &r), pose);
+        let at = |pose| {
+            assess(
+                Prepared::new(&source, &s),
+                Prepared::new(&reference, &r),
+                pose,
+            )
+        };
         let good = at(motion).unwrap();
-        assert!(good.conditioning.unwrap().degenerate(), "{:?}", good.conditioning);
+        assert!(
+            good.conditioning.unwrap().degenerate(),
+            "{:?}",
+            good.conditioning
+        );
         assert!(!good.no_overlap());
         let far = at(Isometry2::new(Vector2::new(0.0, 50.0), 0.0)).unwrap();
         assert!(far.no_overlap(), "{}", far.overlap);
         let (source, reference) = (room(Isometry2::identity()), room(motion));
         let (s, r) = (surfaces(&source), surfaces(&reference));
-        let at = |pose| assess(Prepared::new(&source, &s), Prepared::new(&reference, &r), pose);
+        let at = |pose| {
+            assess(
+                Prepared::new(&source, &s),
+                Prepared::new(&reference, &r),
+                pose,
+            )
+        };
         let right = at(motion).unwrap();
         assert!(!right.conditioning.unwrap().degenerate());
         let wrong = at(Isometry2::new(Vector2::new(0.2, 0.3), 0.05)).unwrap();
@@ -168,7 +187,11 @@ mod tests {
         let pts: Vec<[f64; 2]> = (0..30).map(|i| [i as f64 * 0.1, (i % 7) as f64]).collect();
         let other = surfaces(&Scan::from_cartesian(&pts).unwrap());
         assert!(matches!(
-            assess(Prepared::new(&source, &other), Prepared::new(&reference, &r), motion),
+            assess(
+                Prepared::new(&source, &other),
+                Prepared::new(&reference, &r),
+                motion
+            ),
             Err(IcpError::SurfacesMismatch { .. })
         ));
     }
