@@ -93,6 +93,15 @@ pub enum EstimatesFormat {
     PairCsv,
 }
 
+impl std::fmt::Display for EstimatesFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Tum => "TUM poses per scan",
+            Self::PairCsv => "per-pair motions CSV",
+        })
+    }
+}
+
 /// What the reports say about an external estimator (`config.estimates`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ExternalSource {

@@ -442,6 +442,25 @@ pub fn table_md(report: &RunReport) -> String {
             gated.join(", ")
         );
     }
+    if !report.config.estimates.is_empty() {
+        let _ = writeln!(
+            out,
+            "External estimators (`--estimates`), evaluated on the same pairs and assessed at their poses by the same flags (no iterations, timing or covariance of theirs are known here):\n"
+        );
+        for e in &report.config.estimates {
+            let _ = writeln!(
+                out,
+                "- {}: {} ({}, SHA-256 {}), an estimate for {} of the {} pairs",
+                e.name,
+                e.path.display(),
+                e.format,
+                e.sha256,
+                e.pairs_estimated,
+                report.dataset.pairs
+            );
+        }
+        out.push('\n');
+    }
     let r = &report.reference;
     if let Some(o) = r.offset_estimate {
         let _ = writeln!(

@@ -769,7 +769,8 @@ pub fn build(
             summary.trajectory.ate_rmse_m = evo.as_ref().map(|e| e.ate_trans_m.rmse);
             summary.trajectory.evo = evo;
         }
-        if let Some(last) = summaries.last_mut() {
+        // An external estimate has no covariance to judge.
+        if let Some(last) = summaries.last_mut().filter(|_| vi < setup.variants.len()) {
             last.consistency = consistency::summarize(
                 &rows,
                 setup.covariance,

@@ -5,7 +5,7 @@ mod common;
 
 use datasets::synthetic::{generate, Scenario};
 use datasets::{Dataset, ScanPair};
-use eval::estimates::{load, parse_spec, EstimatesError};
+use eval::estimates::{load, parse_spec, EstimatesError, EstimatesSpec};
 use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, OutputDir};
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
@@ -189,5 +189,176 @@ fn bad_files_are_refused_with_the_file_line_and_field() {
     assert_eq!(
         parse_spec("KISS=a=b.tum").unwrap().1,
         std::path::PathBuf::from("a=b.tum")
+    );
+}
+
+/// A per-pair CSV of `rows`' motions (pairs.csv columns), leaving out the pairs `skip`.
+fn motions_csv(rows: &[&eval::report::PairRecord], skip: &[usize]) -> String {
+    let mut csv = String::from("source,reference,tx_m,ty_m,theta_deg\n");
+    for r in rows.iter().filter(|r| !skip.contains(&r.pair)) {
+        csv += &format!(
+            "{},{},{},{},{}\n",
+            r.source,
+            r.reference,
+            r.tx_m.unwrap(),
+            r.ty_m.unwrap(),
+            r.theta_deg.unwrap()
+        );
+    }
+    csv
+}
+
+fn spec(name: &str, path: &std::path::Path) -> EstimatesSpec {
+    format!("{name}={}", path.display()).parse().unwrap()
+}
+
+fn with_estimates(setup: EvalSetup, ds: &Dataset, specs: &[EstimatesSpec]) -> EvalSetup {
+    let (pairs, _) = ds.consecutive_pairs();
+    setup.with_estimates(specs.iter().map(|s| s.load(ds, &pairs).unwrap()).collect())
+}
+
+/// An external estimator that repeats HD_PL_ICP's motions gets HD_PL_ICP's errors pair by
+/// pair; the pair its file lacks is its failure, counted in its failure rate and left out of
+/// every variant's statistics (equal populations); it has no iterations, timing or
+/// covariance, and the file's hash is in the configuration.
+#[test]
+fn an_external_copy_of_a_variant_gets_its_errors_and_a_missing_pair_is_its_failure() {
+    let ds = dataset();
+    let setup = || {
+        EvalSetup::from_specs(&[builtin("HD_PL_ICP").unwrap()], OffsetChoice::Fixed(0))
+            .unwrap()
+            .with_covariance(eval::consistency::CovarianceMode::ClosedForm)
+            .with_global(Default::default(), eval::GlobalChecks::On)
+            .with_reference_checks(eval::ReferenceChecks::Off)
+    };
+    let alone = evaluate(&ds, &setup(), &ProgressBar::hidden()).unwrap();
+    let rows: Vec<&eval::report::PairRecord> = alone.pairs.iter().collect();
+    let dir = common::scratch_dir("estimates_copy");
+    let path = dir.join("copy.csv");
+    std::fs::write(&path, motions_csv(&rows, &[3])).unwrap();
+    let both = with_estimates(setup(), &ds, &[spec("COPY", &path)]);
+    let r = evaluate(&ds, &both, &ProgressBar::hidden()).unwrap();
+    let names: Vec<&str> = r.variants.iter().map(|v| v.name.as_str()).collect();
+    assert_eq!(names, ["HD_PL_ICP", "COPY"]);
+    let copy = &r.variants[1];
+    assert_eq!(copy.failures.len(), 1);
+    assert_eq!(copy.failures[0].pair, 3);
+    assert!(
+        copy.failures[0].reason.contains("no estimate")
+            && copy.failures[0].reason.contains("3 → 4"),
+        "{}",
+        copy.failures[0].reason
+    );
+    let n = alone.pairs.len();
+    assert_eq!(copy.failure_rate, 1.0 / n as f64);
+    assert_eq!(r.population.left_out, vec![3]);
+    assert_eq!(copy.all_pairs.pairs, n - 1);
+    assert_eq!(r.variants[0].all_pairs.pairs, n - 1);
+    // Pair by pair, the same errors (to the rounding of theta through degrees).
+    let ext: Vec<_> = r.pairs.iter().filter(|p| p.variant == "COPY").collect();
+    for (a, b) in rows.iter().zip(&ext) {
+        if a.pair == 3 {
+            assert!(b.tx_m.is_none() && b.status == eval::status::StatusKind::Failed);
+            continue;
+        }
+        let close = |x: Option<f64>, y: Option<f64>| (x.unwrap() - y.unwrap()).abs() < 1e-9;
+        assert!(close(a.trans_err_m, b.trans_err_m), "pair {}", a.pair);
+        assert!(close(a.rot_err_deg, b.rot_err_deg), "pair {}", a.pair);
+        assert!(close(a.sog_err_mps, b.sog_err_mps), "pair {}", a.pair);
+        assert!(close(a.dcog_err_deg, b.dcog_err_deg), "pair {}", a.pair);
+        // Good poses on the harbour: assessed and checked, nothing flagged.
+        assert_eq!(b.status, eval::status::StatusKind::Ok, "pair {}", a.pair);
+        assert!(b.global_result_score.is_some() && b.overlap.unwrap() > 0.5);
+        assert!(b.init.is_none() && b.iterations.is_none() && b.converged.is_none());
+        assert!(b.time_us.is_none() && b.cov_status.is_empty() && b.nees.is_none());
+        assert_eq!(b.init_attempts, 0);
+    }
+    assert!(copy.iterations_mean.is_none() && copy.converged_fraction.is_none());
+    assert!(copy.timing.is_none() && copy.consistency.is_none());
+    assert!(r.variants[0].timing.is_some() && r.variants[0].consistency.is_some());
+    let source = &r.config.estimates[0];
+    assert_eq!(
+        (source.name.as_str(), source.pairs_estimated),
+        ("COPY", n - 1)
+    );
+    assert_eq!(source.sha256, spec("COPY", &path).sha256);
+    assert_eq!(source.format, eval::estimates::EstimatesFormat::PairCsv);
+    // HD_PL_ICP's own rows are those of the run without the external.
+    let mine: Vec<_> = r
+        .pairs
+        .iter()
+        .filter(|p| p.variant == "HD_PL_ICP")
+        .collect();
+    for (a, b) in rows.iter().zip(&mine) {
+        assert_eq!((a.tx_m, a.ty_m, a.theta_deg), (b.tx_m, b.ty_m, b.theta_deg));
+    }
+}
+
+/// An external estimate is flagged by the same rules as a registration: a pose 60 m off
+/// overlaps nothing, a pose 2.5 m and 25° off is suspect (a global search finds a far
+/// better pose), the true poses are not flagged; the flags count as the estimator's failures and the
+/// wrong numbers stay in its statistics.
+#[test]
+fn external_estimates_are_flagged_like_registrations() {
+    let ds = dataset();
+    let (pairs, _) = ds.consecutive_pairs();
+    let mut csv = String::from("source,reference,tx_m,ty_m,theta_deg\n");
+    for p in &pairs {
+        let mut t = truth(&ds, *p);
+        match p.source {
+            2 => t = Isometry2::new(nalgebra::Vector2::new(60.0, 0.0), 0.0) * t,
+            5 => t = Isometry2::new(nalgebra::Vector2::new(2.0, -1.5), 25f64.to_radians()) * t,
+            _ => {}
+        }
+        csv += &format!(
+            "{},{},{},{},{}\n",
+            p.source,
+            p.reference,
+            t.translation.x,
+            t.translation.y,
+            t.rotation.angle().to_degrees()
+        );
+    }
+    let dir = common::scratch_dir("estimates_flags");
+    let path = dir.join("bad.csv");
+    std::fs::write(&path, csv).unwrap();
+    let setup = EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0))
+        .unwrap()
+        .with_global(Default::default(), eval::GlobalChecks::On);
+    let r = evaluate(
+        &ds,
+        &with_estimates(setup, &ds, &[spec("BAD", &path)]),
+        &ProgressBar::hidden(),
+    )
+    .unwrap();
+    let bad = &r.variants[1];
+    assert_eq!(bad.no_overlap_pairs, vec![2], "{bad:?}");
+    assert_eq!(bad.suspect_pairs, vec![5], "{bad:?}");
+    assert_eq!(bad.pairs_ok, pairs.len() - 2);
+    assert_eq!(bad.failure_rate, 2.0 / pairs.len() as f64);
+    // Flagged, not dropped: the 60 m error is in the statistics.
+    assert!(bad.all_pairs.trans_err_m.as_ref().unwrap().p95_abs > 10.0);
+    assert_eq!(
+        bad.success_rate,
+        Some((pairs.len() - 2) as f64 / pairs.len() as f64)
+    );
+}
+
+/// The file is hashed when the option is read; reading another file under the same name
+/// later (a shard, a merge) is refused.
+#[test]
+fn a_file_changed_after_the_option_was_read_is_refused() {
+    let ds = dataset();
+    let (pairs, _) = ds.consecutive_pairs();
+    let dir = common::scratch_dir("estimates_changed");
+    let path = dir.join("m.csv");
+    std::fs::write(&path, "source,reference,tx_m,ty_m,theta_deg\n0,1,1,0,0\n").unwrap();
+    let s = spec("M", &path);
+    assert!(s.load(&ds, &pairs).is_ok());
+    std::fs::write(&path, "source,reference,tx_m,ty_m,theta_deg\n0,1,2,0,0\n").unwrap();
+    let err = s.load(&ds, &pairs).unwrap_err();
+    assert!(
+        matches!(err, EstimatesError::Changed { .. }) && err.to_string().contains("m.csv"),
+        "{err}"
     );
 }

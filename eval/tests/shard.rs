@@ -162,6 +162,26 @@ fn run_shards_merge_to_the_single_run_with_identity_and_constant_velocity_starts
     }
 }
 
+/// A chain with a close start and a sequential one (`global,constant-velocity`) is cut by
+/// methods, and the methods cut include gated twins (the surface metrics' close starts) and an
+/// external estimate: every shard count merges to the single run. (A shard of the later
+/// variants once ran them with the first variants' gated twins.)
+#[test]
+fn shards_cut_by_methods_keep_each_variants_gated_twin_and_the_external_estimates() {
+    let dir = common::scratch_dir("shard_methods");
+    let first = dir.join("first");
+    ok(icp_eval(&args(&RUN, &["--out", first.to_str().unwrap()])));
+    let truth = format!("TRUTH={}", first.join("reference.tum").display());
+    let mut base: Vec<&str> = RUN.to_vec();
+    base[6] = "HD_ICP,PL_ICP,HD_PL_ICP,GICP";
+    base.extend(["--init", "global,constant-velocity", "--estimates", &truth]);
+    for (merged, files) in merged_equal_single(&base, &dir, &[2, 3, 5]) {
+        assert!(files >= 9, "{files} files compared");
+        let summary = std::fs::read_to_string(merged.join("summary.json")).unwrap();
+        assert!(summary.contains("\"start_gated\"") && summary.contains("\"TRUTH\""));
+    }
+}
+
 #[test]
 fn figures_of_a_merged_run_equal_the_single_runs() {
     let base: Vec<&str> = RUN[..RUN.len() - 1].to_vec();
