@@ -406,3 +406,85 @@ pub fn per_pair_from_csv(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+
+    /// Text made of the pieces both formats are made of, and of the pieces that break them.
+    fn messy_text() -> impl Strategy<Value = String> {
+        let piece = prop_oneof![
+            Just("source,reference,tx_m,ty_m,theta_deg".to_owned()),
+            Just("#".to_owned()),
+            Just(",".to_owned()),
+            Just(" ".to_owned()),
+            Just("\n".to_owned()),
+            Just("NaN".to_owned()),
+            Just("-inf".to_owned()),
+            Just("1e308".to_owned()),
+            Just("\u{feff}".to_owned()),
+            (0usize..6).prop_map(|k| k.to_string()),
+            (-10.0f64..10.0).prop_map(|v| v.to_string()),
+            "[ -~]{0,6}",
+        ];
+        prop::collection::vec(piece, 0..60).prop_map(|v| v.concat())
+    }
+
+    fn pairs() -> Vec<ScanPair> {
+        (0..5)
+            .map(|k| ScanPair {
+                source: k,
+                reference: k + 1,
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// Whatever the text, each reader gives estimates or a typed error, never a panic,
+        /// and an estimate is always a finite pose.
+        #[test]
+        fn any_text_gives_estimates_or_a_typed_error(text in messy_text()) {
+            let path = Path::new("fuzzed.txt");
+            let times: Vec<f64> = (0..6).map(|k| k as f64 * 0.2).collect();
+            for poses in [
+                per_scan_from_tum(&text, path, &times),
+                per_pair_from_csv(&text, path, &pairs()),
+            ] {
+                if let Ok(poses) = poses {
+                    for p in poses.into_iter().flatten() {
+                        prop_assert!(p.translation.vector.iter().all(|v| v.is_finite()));
+                        prop_assert!(p.rotation.angle().is_finite());
+                    }
+                }
+            }
+        }
+
+        /// Poses written as TUM lines (yaw as a z-axis quaternion, 12 decimals) at jittered
+        /// scan times read back to the same poses, each on its own scan.
+        #[test]
+        fn tum_lines_read_back_to_their_poses(
+            poses in prop::collection::vec((-50.0f64..50.0, -50.0f64..50.0, -3.1f64..3.1), 6),
+            jitter_s in prop::collection::vec(-9e-4f64..9e-4, 6),
+        ) {
+            let times: Vec<f64> = (0..6).map(|k| 100.0 + k as f64 * 0.1).collect();
+            let text: String = poses
+                .iter()
+                .zip(&times)
+                .zip(&jitter_s)
+                .map(|((&(x, y, yaw), t), j)| {
+                    let (s, c) = (0.5 * yaw).sin_cos();
+                    format!("{:.6} {x:.12} {y:.12} 0 0 0 {s:.12} {c:.12}\n", t + j)
+                })
+                .collect();
+            let read = per_scan_from_tum(&text, Path::new("p.tum"), &times).unwrap();
+            for (got, &(x, y, yaw)) in read.iter().zip(&poses) {
+                let got = got.unwrap();
+                prop_assert!((got.translation.x - x).abs() < 1e-9);
+                prop_assert!((got.translation.y - y).abs() < 1e-9);
+                prop_assert!(got.rotation.angle_to(&UnitComplex::new(yaw)).abs() < 1e-9);
+            }
+        }
+    }
+}
