@@ -32,6 +32,18 @@ fn truth(ds: &Dataset, p: ScanPair) -> Isometry2<f64> {
         .unwrap()
 }
 
+/// One line of a per-pair CSV: `t_ref_src` of `p`.
+fn csv_row(p: ScanPair, t: &Isometry2<f64>) -> String {
+    format!(
+        "{},{},{},{},{}\n",
+        p.source,
+        p.reference,
+        t.translation.x,
+        t.translation.y,
+        t.rotation.angle().to_degrees()
+    )
+}
+
 fn assert_same(a: &Isometry2<f64>, b: &Isometry2<f64>) {
     assert!(
         (a.translation.vector - b.translation.vector).norm() < 1e-12,
@@ -86,15 +98,7 @@ fn a_pair_csv_gives_its_rows_and_leaves_pairs_without_one_empty() {
     let (pairs, _) = ds.consecutive_pairs();
     let mut csv = String::from("source,reference,tx_m,ty_m,theta_deg\n");
     for p in pairs.iter().filter(|p| p.source != 3) {
-        let t = truth(&ds, *p);
-        csv += &format!(
-            "{},{},{},{},{}\n",
-            p.source,
-            p.reference,
-            t.translation.x,
-            t.translation.y,
-            t.rotation.angle().to_degrees()
-        );
+        csv += &csv_row(*p, &truth(&ds, *p));
     }
     csv += "100,101,1,2,3\n"; // a pair this run does not have: unused
     let path = dir.join("motions.csv");
@@ -310,14 +314,7 @@ fn external_estimates_are_flagged_like_registrations() {
             5 => t = Isometry2::new(nalgebra::Vector2::new(2.0, -1.5), 25f64.to_radians()) * t,
             _ => {}
         }
-        csv += &format!(
-            "{},{},{},{},{}\n",
-            p.source,
-            p.reference,
-            t.translation.x,
-            t.translation.y,
-            t.rotation.angle().to_degrees()
-        );
+        csv += &csv_row(*p, &t);
     }
     let dir = common::scratch_dir("estimates_flags");
     let path = dir.join("bad.csv");

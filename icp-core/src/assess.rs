@@ -144,6 +144,16 @@ mod tests {
         assert!(a.mean_residual_m < 1e-6, "{}", a.mean_residual_m);
     }
 
+    /// `assess` of `pose` between `source` and `reference`, their surfaces estimated here.
+    fn at(source: &Scan, reference: &Scan, pose: Isometry2<f64>) -> Result<Registration, IcpError> {
+        let (s, r) = (surfaces(source), surfaces(reference));
+        assess(
+            Prepared::new(source, &s),
+            Prepared::new(reference, &r),
+            pose,
+        )
+    }
+
     /// The flags' inputs move as they must: a corridor is degenerate at the right pose, a
     /// pose 50 m off overlaps nothing, a wrong pose has a larger residual, a NaN pose is
     /// refused.
@@ -151,41 +161,32 @@ mod tests {
     fn flags_a_corridor_a_pose_far_off_and_refuses_nan() {
         let motion = Isometry2::new(Vector2::new(0.5, 0.0), 0.0);
         let (source, reference) = (corridor(Isometry2::identity()), corridor(motion));
-        let (s, r) = (surfaces(&source), surfaces(&reference));
-        let at = |pose| {
-            assess(
-                Prepared::new(&source, &s),
-                Prepared::new(&reference, &r),
-                pose,
-            )
-        };
-        let good = at(motion).unwrap();
-        assert!(
-            good.conditioning.unwrap().degenerate(),
-            "{:?}",
-            good.conditioning
-        );
+        let good = at(&source, &reference, motion).unwrap();
+        let cond = good.conditioning.unwrap();
+        assert!(cond.degenerate(), "{cond:?}");
         assert!(!good.no_overlap());
-        let far = at(Isometry2::new(Vector2::new(0.0, 50.0), 0.0)).unwrap();
+        let far = at(
+            &source,
+            &reference,
+            Isometry2::new(Vector2::new(0.0, 50.0), 0.0),
+        )
+        .unwrap();
         assert!(far.no_overlap(), "{}", far.overlap);
         let (source, reference) = (room(Isometry2::identity()), room(motion));
-        let (s, r) = (surfaces(&source), surfaces(&reference));
-        let at = |pose| {
-            assess(
-                Prepared::new(&source, &s),
-                Prepared::new(&reference, &r),
-                pose,
-            )
-        };
-        let right = at(motion).unwrap();
+        let right = at(&source, &reference, motion).unwrap();
         assert!(!right.conditioning.unwrap().degenerate());
-        let wrong = at(Isometry2::new(Vector2::new(0.2, 0.3), 0.05)).unwrap();
+        let wrong = Isometry2::new(Vector2::new(0.2, 0.3), 0.05);
+        let wrong = at(&source, &reference, wrong).unwrap();
         assert!(wrong.mean_residual_m > right.mean_residual_m + 0.05);
         let nan = Isometry2::new(Vector2::new(f64::NAN, 0.0), 0.0);
-        assert!(matches!(at(nan), Err(IcpError::NonFinite { .. })));
+        assert!(matches!(
+            at(&source, &reference, nan),
+            Err(IcpError::NonFinite { .. })
+        ));
         // Surfaces of another scan (fewer returns) are refused.
         let pts: Vec<[f64; 2]> = (0..30).map(|i| [i as f64 * 0.1, (i % 7) as f64]).collect();
         let other = surfaces(&Scan::from_cartesian(&pts).unwrap());
+        let r = surfaces(&reference);
         assert!(matches!(
             assess(
                 Prepared::new(&source, &other),
