@@ -25,8 +25,8 @@ fn workspace_root() -> PathBuf {
 }
 
 /// The folder the data is read from, and how it was chosen (for the failure message):
-/// `$ICP_DATA_DIR` (a relative value taken from [`workspace_root`]), else the workspace's `datasets/` (where `scripts/fetch-marina.sh`
-/// puts the marina files).
+/// `$ICP_DATA_DIR` (a relative value taken from [`workspace_root`]), else the workspace's
+/// `datasets/` (where `scripts/fetch-marina.sh` puts the marina files).
 fn data_root() -> (PathBuf, String) {
     let root = workspace_root();
     match std::env::var_os(DATA_DIR_ENV) {
