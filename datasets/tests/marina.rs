@@ -1,5 +1,5 @@
-//! The marina loader on the real files (skipped, saying why, when they are absent) and on
-//! broken inputs made here.
+//! The marina loader on the real files (ignored unless `--include-ignored`, then failing when
+//! they are absent) and on broken inputs made here.
 
 use std::path::Path;
 
@@ -7,25 +7,13 @@ use datasets::marina::{self, MarinaOptions};
 use datasets::matv5::write_doubles;
 use datasets::DatasetError;
 
-/// The real data directory: `ICP_DATA_DIR`, a relative value taken from the workspace root
-/// (cargo runs tests from the crate's folder). When absent the test says so on the terminal,
-/// past the test harness's output capture.
-fn real_dir() -> Option<std::path::PathBuf> {
-    use std::io::Write;
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let env = std::env::var_os(marina::DATA_DIR_ENV).map(|d| root.join(d));
-    match marina::find_in(marina::candidate_dirs(None, env.as_deref())) {
-        Ok(d) => Some(d),
-        Err(e) => {
-            let _ = writeln!(std::io::stderr(), "SKIPPED (marina data absent): {e}");
-            None
-        }
-    }
-}
+#[path = "common/data.rs"]
+mod data;
 
 #[test]
+#[ignore = "needs the marina data (ICP_DATA_DIR): run with --include-ignored"]
 fn real_files_load_with_the_expected_counts() {
-    let Some(dir) = real_dir() else { return };
+    let dir = data::marina_dir();
     let ds = marina::load(&dir, &MarinaOptions::default()).unwrap();
     assert_eq!(ds.scans.len(), 177);
     let counts: Vec<usize> = ds.scans.iter().map(|s| s.len()).collect();
@@ -249,8 +237,9 @@ fn truncated_empty_and_foreign_files_are_parse_errors() {
 }
 
 #[test]
+#[ignore = "needs the marina data (ICP_DATA_DIR): run with --include-ignored"]
 fn truncated_real_file_is_a_parse_error() {
-    let Some(dir) = real_dir() else { return };
+    let dir = data::marina_dir();
     let bytes = std::fs::read(dir.join("ranges.mat")).unwrap();
     let (a, g) = (
         std::fs::read(dir.join("angles.mat")).unwrap(),

@@ -324,7 +324,7 @@ fn csv_non_finite_odometry() {
 /// fresh scratch directory named `name`.
 fn run_cli(name: &str, args: &[&str]) -> (Option<i32>, String) {
     let out = common::scratch_dir(name);
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+    let o = common::icp_eval_command()
         .args(args)
         .args(["--quiet", "--no-plots", "--out"])
         .arg(out.join("out"))
@@ -794,7 +794,7 @@ fn unwritable_output_directory() {
     let dir = common::scratch_dir("matrix_unwritable");
     std::fs::write(dir.join("file"), "x").unwrap();
     let out = dir.join("file").join("out");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+    let o = common::icp_eval_command()
         .args([
             "run",
             "--dataset",

@@ -3,12 +3,11 @@
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 use eval::report::{PairRecord, RunReport};
 
 fn icp_eval(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+    common::icp_eval_command()
         .args(args)
         .output()
         .expect("the binary runs")
@@ -217,7 +216,7 @@ fn bad_arguments_exit_2_with_a_message() {
 #[test]
 fn reproduce_without_data_runs_the_synthetic_scenario_and_says_how_to_get_the_data() {
     let dir = common::scratch_dir("reproduce_no_data");
-    let o = Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+    let o = common::icp_eval_command()
         .args(["reproduce", "--quiet", "--no-plots", "--out", "out"])
         .current_dir(&dir)
         .env_remove(datasets::marina::DATA_DIR_ENV)

@@ -1,22 +1,35 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
-/// The marina data directory from `ICP_DATA_DIR` (a relative value is taken from the
-/// workspace root, since cargo runs tests from the crate folder), or `None` after saying on
-/// the terminal, past the harness's capture, that the test is skipped.
-pub fn marina_dir() -> Option<PathBuf> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-    let env = std::env::var_os(datasets::marina::DATA_DIR_ENV).map(|d| root.join(d));
-    match datasets::marina::find_in(datasets::marina::candidate_dirs(None, env.as_deref())) {
-        Ok(d) => Some(d),
-        Err(e) => {
-            let _ = writeln!(std::io::stderr(), "SKIPPED (marina data absent): {e}");
-            None
-        }
+/// The data not in the repository (`marina_dir`, ...): the datasets crate's test helper.
+#[path = "../../datasets/tests/common/data.rs"]
+pub mod data;
+
+/// The variables that shard a run (Slurm arrays, Kubernetes indexed Jobs): inherited from a
+/// developer's job, they would shard the runs a test means whole.
+pub const SHARD_VARS: [&str; 4] = [
+    "SLURM_ARRAY_TASK_ID",
+    "SLURM_ARRAY_TASK_MIN",
+    "SLURM_ARRAY_TASK_COUNT",
+    "JOB_COMPLETION_INDEX",
+];
+
+/// `command` with the [`SHARD_VARS`] removed from its environment, so that it runs the same
+/// inside a Slurm array task or an indexed Job; a test that means to shard sets them again
+/// with `.env`.
+pub fn unsharded(mut command: Command) -> Command {
+    for v in SHARD_VARS {
+        command.env_remove(v);
     }
+    command
+}
+
+/// The `icp-eval` binary, [`unsharded`]: every test that runs it starts here.
+pub fn icp_eval_command() -> Command {
+    unsharded(Command::new(env!("CARGO_BIN_EXE_icp-eval")))
 }
 
 /// A fresh, empty directory under the target dir.

@@ -4,10 +4,10 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn icp_eval(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+    common::icp_eval_command()
         .args(args)
         .output()
         .expect("the binary runs")

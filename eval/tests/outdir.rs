@@ -3,15 +3,10 @@
 
 mod common;
 
-use std::process::Command;
-
 use eval::{EvalError, OutputDir};
 
 fn icp_eval(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_icp-eval"))
-        .args(args)
-        .output()
-        .unwrap()
+    common::icp_eval_command().args(args).output().unwrap()
 }
 
 #[test]

@@ -11,23 +11,6 @@ use std::process::{Command, Output};
 
 use eval::shard::{resolve, Shard, ShardError, ShardOrigin};
 
-/// The variables that shard a run: removed from every child, so that the tests run the same
-/// inside a Slurm array or an indexed Job.
-const SHARD_VARS: [&str; 4] = [
-    "SLURM_ARRAY_TASK_ID",
-    "SLURM_ARRAY_TASK_MIN",
-    "SLURM_ARRAY_TASK_COUNT",
-    "JOB_COMPLETION_INDEX",
-];
-
-fn command() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_icp-eval"));
-    for v in SHARD_VARS {
-        c.env_remove(v);
-    }
-    c
-}
-
 fn ok(o: Output) -> Output {
     assert!(
         o.status.success(),
@@ -38,7 +21,7 @@ fn ok(o: Output) -> Output {
 }
 
 fn icp_eval(args: &[String]) -> Output {
-    command().args(args).output().unwrap()
+    common::icp_eval_command().args(args).output().unwrap()
 }
 
 fn args(base: &[&str], more: &[&str]) -> Vec<String> {
@@ -260,10 +243,7 @@ fn the_readme_laptop_form_runs_shards_in_parallel_and_merges() {
          {bin} {run} --out single",
         dir = dir.display()
     );
-    let mut sh = Command::new("sh");
-    for v in SHARD_VARS {
-        sh.env_remove(v);
-    }
+    let mut sh = common::unsharded(Command::new("sh"));
     ok(sh.args(["-c", &script]).output().unwrap());
     assert_same_outputs(&dir.join("single"), &dir.join("merged"));
 }
@@ -386,7 +366,7 @@ fn re_running_a_shard_rewrites_the_same_part() {
 fn a_slurm_array_task_shards_a_plain_run_and_says_so() {
     let dir = common::scratch_dir("shard_slurm");
     let out = dir.join("task");
-    let o = ok(command()
+    let o = ok(common::icp_eval_command()
         .args(RUN)
         .args(["--out", out.to_str().unwrap()])
         .env("SLURM_ARRAY_TASK_ID", "5")
@@ -404,7 +384,7 @@ fn a_slurm_array_task_shards_a_plain_run_and_says_so() {
     assert!(!out.join("summary.json").exists());
     // --no-shard: the whole run, in the same job.
     let whole = dir.join("whole");
-    ok(command()
+    ok(common::icp_eval_command()
         .args(RUN)
         .args(["--no-shard", "--out", whole.to_str().unwrap()])
         .env("SLURM_ARRAY_TASK_ID", "5")
@@ -414,7 +394,7 @@ fn a_slurm_array_task_shards_a_plain_run_and_says_so() {
         .unwrap());
     assert!(whole.join("summary.json").is_file());
     // A bad variable: exit 2 naming it.
-    let o = command()
+    let o = common::icp_eval_command()
         .args(RUN)
         .args(["--out", dir.join("bad").to_str().unwrap()])
         .env("JOB_COMPLETION_INDEX", "two")

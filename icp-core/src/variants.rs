@@ -457,16 +457,77 @@ mod tests {
         assert_eq!(pl.minimizer.unwrap().kind, "gauss_newton");
     }
 
-    /// Rewrites `configs/variants/` in normalized form: `cargo test -p icp-core --lib
-    /// write_normalized_configs -- --ignored`.
+    /// Every built-in's file in `configs/variants/` is its normalized form (the spec it
+    /// builds, every parameter written out, pretty JSON): what runs is what the file says.
+    /// With `ICP_WRITE_CONFIGS=1` the files that differ are rewritten instead (`ICP_WRITE_CONFIGS=1
+    /// cargo test -p icp-core --lib configs_are_written_in_normalized_form`), e.g. after a
+    /// kind gained a parameter.
     #[test]
-    #[ignore]
-    fn write_normalized_configs() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/variants");
+    fn configs_are_written_in_normalized_form() {
+        let crate_dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let dir = crate_dir.parent().unwrap().join("configs/variants");
+        let write = std::env::var_os("ICP_WRITE_CONFIGS").is_some_and(|v| v == "1");
+        let mut stale = Vec::new();
         for spec in builtins() {
-            let text = serde_json::to_string_pretty(&spec.normalized().unwrap()).unwrap() + "\n";
-            std::fs::write(dir.join(format!("{}.json", spec.name.to_lowercase())), text).unwrap();
+            let path = dir.join(format!("{}.json", spec.name.to_lowercase()));
+            let normalized =
+                serde_json::to_string_pretty(&spec.normalized().unwrap()).unwrap() + "\n";
+            let on_disk = std::fs::read_to_string(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            if on_disk == normalized {
+                continue;
+            }
+            if write {
+                std::fs::write(&path, &normalized)
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                eprintln!("rewrote {}", path.display());
+            } else {
+                stale.push(format!(
+                    "{}: {}",
+                    path.display(),
+                    first_difference(&normalized, &on_disk)
+                ));
+            }
         }
+        assert!(
+            stale.is_empty(),
+            "not in normalized form (rewrite with ICP_WRITE_CONFIGS=1 cargo test -p icp-core \
+             --lib configs_are_written_in_normalized_form):\n{}",
+            stale.join("\n")
+        );
+    }
+
+    /// Where `actual` first departs from `expected`, line by line: `line N: - expected / +
+    /// actual` (an absent line shown as `<end of file>`).
+    fn first_difference(expected: &str, actual: &str) -> String {
+        let (mut e, mut a) = (expected.lines(), actual.lines());
+        for n in 1.. {
+            match (e.next(), a.next()) {
+                (None, None) => break,
+                (x, y) if x == y => continue,
+                (x, y) => {
+                    let show = |l: Option<&str>| l.unwrap_or("<end of file>").to_owned();
+                    return format!("line {n}:\n  - {}\n  + {}", show(x), show(y));
+                }
+            }
+        }
+        "the same lines, other line endings or final newline".to_owned()
+    }
+
+    #[test]
+    fn first_difference_names_the_line() {
+        assert_eq!(
+            first_difference("{\n  \"a\": 1\n}\n", "{\n  \"a\": 2\n}\n"),
+            "line 2:\n  -   \"a\": 1\n  +   \"a\": 2"
+        );
+        assert_eq!(
+            first_difference("a\nb\n", "a\n"),
+            "line 2:\n  - b\n  + <end of file>"
+        );
+        assert_eq!(
+            first_difference("a\n", "a\r\n"),
+            "the same lines, other line endings or final newline"
+        );
     }
 
     #[test]
