@@ -640,6 +640,68 @@ fn scan_pair_with_no_overlap() {
     assert!(reg.no_overlap(), "{reg:?}");
 }
 
+// ---- External estimates (`--estimates NAME=FILE`) -------------------------------------------
+
+/// `run --estimates ARG` on three synthetic scans: the exit code and first stderr line.
+fn run_with_estimates(name: &str, estimates: &str) -> (Option<i32>, String) {
+    let args = ["--variants", "HD_ICP", "--estimates", estimates];
+    run_with_args(name, &args)
+}
+
+/// A per-pair motions file for the three-scan runs.
+fn motions_file(name: &str) -> String {
+    let path = common::scratch_dir(name).join("m.csv");
+    std::fs::write(&path, "source,reference,tx_m,ty_m,theta_deg\n0,1,0.1,0,0\n").unwrap();
+    path.display().to_string()
+}
+
+#[test]
+fn estimates_without_a_name() {
+    let (code, line) = run_with_estimates("matrix_estimates_noname", "m.csv");
+    assert_eq!(code, Some(2));
+    assert!(
+        line.contains("--estimates \"m.csv\": expected NAME=FILE"),
+        "{line}"
+    );
+}
+
+#[test]
+fn estimates_file_missing() {
+    let (code, line) = run_with_estimates("matrix_estimates_absent", "X=/nonexistent/m.tum");
+    assert_eq!(code, Some(2));
+    assert!(line.contains("/nonexistent/m.tum: No such file"), "{line}");
+}
+
+#[test]
+fn estimates_named_like_a_variant() {
+    let file = motions_file("matrix_estimates_clash_file");
+    let (code, line) = run_with_estimates("matrix_estimates_clash", &format!("HD_ICP={file}"));
+    assert_eq!(code, Some(2));
+    assert!(line.contains("two variants are named HD_ICP"), "{line}");
+}
+
+#[test]
+fn estimates_with_a_bad_name() {
+    let file = motions_file("matrix_estimates_badname_file");
+    let (code, line) = run_with_estimates("matrix_estimates_badname", &format!("a/b={file}"));
+    assert_eq!(code, Some(2));
+    assert!(line.contains("variant name \"a/b\""), "{line}");
+}
+
+#[test]
+fn estimates_of_another_run() {
+    // A TUM pose near no scan of this run names the file and the line.
+    let path = common::scratch_dir("matrix_estimates_other_file").join("other.tum");
+    std::fs::write(&path, "500.0 1 2 0 0 0 0 1\n").unwrap();
+    let (code, line) =
+        run_with_estimates("matrix_estimates_other", &format!("X={}", path.display()));
+    assert_eq!(code, Some(2));
+    assert!(
+        line.contains("other.tum, line 1: the pose at t = 500 s is within 0.001 s of no scan"),
+        "{line}"
+    );
+}
+
 // ---- Initial guesses (`--init`, `--start-gate`) -------------------------------------------
 
 /// The exit code and first stderr line of `run <args>` on three synthetic scans.

@@ -1,14 +1,14 @@
 //! `--estimates` end to end: another tool's results enter `compare` (a verdict against a
-//! built-in variant) and the gate (a worse file under the same name is a regression), and bad
-//! options are refused with a message naming what is wrong.
+//! built-in variant) and the gate (a worse file under the same name is a regression). Bad
+//! `--estimates` options are in the bad-input matrix.
 
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 fn icp_eval(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_icp-eval"))
+    common::icp_eval_command()
         .args(args)
         .output()
         .expect("the binary runs")
@@ -134,65 +134,4 @@ fn external_estimators_get_compare_verdicts_and_are_gated() {
         .collect();
     assert!(!rows.is_empty(), "{text}");
     assert!(rows.iter().all(|l| l.starts_with("| MINE |")), "{text}");
-}
-
-/// `run --estimates ARG` on three scans: the exit code and the first stderr line.
-fn run_with(dir: &Path, name: &str, estimates: &str) -> (Option<i32>, String) {
-    let out = dir.join(name);
-    let o = icp_eval(&[
-        "run",
-        "--dataset",
-        "synthetic",
-        "--scans",
-        "3",
-        "--variants",
-        "HD_ICP",
-        "--quiet",
-        "--no-plots",
-        "--estimates",
-        estimates,
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    (
-        o.status.code(),
-        err.lines().next().unwrap_or_default().to_owned(),
-    )
-}
-
-#[test]
-fn bad_estimates_options_are_refused() {
-    let dir = common::scratch_dir("external_bad");
-    let file = dir.join("m.csv");
-    std::fs::write(&file, "source,reference,tx_m,ty_m,theta_deg\n0,1,0.1,0,0\n").unwrap();
-    let f = file.display();
-    let cases = [
-        ("noequals", "m.csv".to_owned(), "expected NAME=FILE"),
-        (
-            "absent",
-            "X=/nonexistent/m.tum".to_owned(),
-            "/nonexistent/m.tum",
-        ),
-        (
-            "clash",
-            format!("HD_ICP={f}"),
-            "two variants are named HD_ICP",
-        ),
-        ("badname", format!("a/b={f}"), "variant name \"a/b\""),
-    ];
-    for (name, arg, want) in cases {
-        let (code, line) = run_with(&dir, name, &arg);
-        assert_eq!(code, Some(2), "{name}: {line}");
-        assert!(line.contains(want), "{name}: {line}");
-    }
-    // A file for another run's scans: a TUM pose near no scan names the file and line.
-    let tum = dir.join("other.tum");
-    std::fs::write(&tum, "500.0 1 2 0 0 0 0 1\n").unwrap();
-    let (code, line) = run_with(&dir, "other", &format!("X={}", tum.display()));
-    assert_eq!(code, Some(2));
-    assert!(
-        line.contains("other.tum, line 1") && line.contains("within 0.001 s of no scan"),
-        "{line}"
-    );
 }
