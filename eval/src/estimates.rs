@@ -4,8 +4,9 @@
 //!
 //! - TUM poses, `timestamp x y z qx qy qz qw` per line (`#` comments allowed), one pose per
 //!   scan: each pose belongs to the scan whose time (its timestamp, else `k · dt_s`, the clock
-//!   of our own TUM files) is within [`MATCH_TOLERANCE_S`]; a pose near no scan is an error
-//!   (the file is of another run). A pair's motion is `t_ref_src = pose_ref⁻¹ · pose_src`, and
+//!   of our own TUM files) is within [`MATCH_TOLERANCE_S`]. A pose outside the run's time span
+//!   is left unused and counted (a trajectory of the whole log, the run on part of it); one
+//!   inside it and near no scan is an error (another clock, or the file of another run). A pair's motion is `t_ref_src = pose_ref⁻¹ · pose_src`, and
 //!   a pair with a scan the file has no pose for has no estimate (a failure of the estimator).
 //! - A CSV of per-pair motions with the header `source,reference,tx_m,ty_m,theta_deg`
 //!   (`t_ref_src`, as in pairs.csv): a pair without a row has no estimate.
@@ -52,8 +53,8 @@ pub enum EstimatesError {
         field: &'static str,
         why: String,
     },
-    /// The file holds no estimate at all.
-    #[error("{path}: no estimates in the file")]
+    /// The file holds no estimate for any pair of the run.
+    #[error("{path}: no estimates for the pairs of this run (TUM poses outside the run's time span are left unused)")]
     Empty { path: PathBuf },
     /// A TUM pose is near no scan of the run.
     #[error("{path}, line {line}: the pose at t = {t_s} s is within {tol_s} s of no scan (nearest: {nearest_s} s); is the file of this run?")]
@@ -82,6 +83,9 @@ pub enum EstimatesError {
         got: String,
     },
 }
+
+/// One `t_ref_src` (or pose) per slot (pair or scan), `None` where the file has none.
+pub type Slots = Vec<Option<Isometry2<f64>>>;
 
 /// Which of the two formats a file is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -116,6 +120,10 @@ pub struct ExternalSource {
     /// Pairs of the run the file has an estimate for (the others are failures of the
     /// estimator).
     pub pairs_estimated: usize,
+    /// Estimates in the file for no pair of the run, left unused: TUM poses outside the run's
+    /// time span, CSV rows of pairs the run does not register.
+    #[serde(default)]
+    pub unused: usize,
 }
 
 /// One external estimator's motions on the pairs of a run.
@@ -124,7 +132,7 @@ pub struct ExternalEstimates {
     /// Where they come from.
     pub source: ExternalSource,
     /// Per pair of the run, `t_ref_src`, or `None` where the file has none.
-    pub per_pair: Vec<Option<Isometry2<f64>>>,
+    pub per_pair: Slots,
 }
 
 /// An `--estimates NAME=FILE` as a run (and a sharded run's plan) records it: with the file's
@@ -205,14 +213,15 @@ pub fn load(
     } else {
         EstimatesFormat::Tum
     };
-    let per_pair: Vec<_> = match format {
+    let (per_pair, unused): (Vec<_>, usize) = match format {
         EstimatesFormat::PairCsv => per_pair_from_csv(&text, path, pairs)?,
         EstimatesFormat::Tum => {
-            let poses = per_scan_from_tum(&text, path, scan_times_s)?;
-            pairs
+            let (poses, unused) = per_scan_from_tum(&text, path, scan_times_s)?;
+            let per_pair = pairs
                 .iter()
                 .map(|p| Some(poses[p.reference]?.inverse() * poses[p.source]?))
-                .collect()
+                .collect();
+            (per_pair, unused)
         }
     };
     if per_pair.iter().all(Option::is_none) {
@@ -227,6 +236,7 @@ pub fn load(
             sha256,
             format,
             pairs_estimated: per_pair.iter().flatten().count(),
+            unused,
         },
         per_pair,
     })
@@ -264,15 +274,22 @@ fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
-/// The TUM poses of `text`, one slot per scan (`None`: no pose for that scan).
+/// The TUM poses of `text`, one slot per scan (`None`: no pose for that scan), and how many
+/// poses lie outside the scans' time span (left unused).
 pub fn per_scan_from_tum(
     text: &str,
     path: &Path,
     scan_times_s: &[f64],
-) -> Result<Vec<Option<Isometry2<f64>>>, EstimatesError> {
+) -> Result<(Slots, usize), EstimatesError> {
     const FIELDS: [&str; 8] = ["timestamp", "x", "y", "z", "qx", "qy", "qz", "qw"];
     let mut poses = vec![None; scan_times_s.len()];
     let mut seen = false;
+    let mut outside = 0;
+    let span_s = scan_times_s
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &t| {
+            (lo.min(t), hi.max(t))
+        });
     for (line, raw) in content_lines(text) {
         let cells: Vec<&str> = raw.split_whitespace().collect();
         if cells.len() != FIELDS.len() {
@@ -308,8 +325,13 @@ pub fn per_scan_from_tum(
             .map(|(k, s)| (k, *s))
             .min_by(|a, b| (a.1 - t_s).abs().total_cmp(&(b.1 - t_s).abs()))
             .unwrap_or((0, f64::NAN));
+        seen = true;
         // NaN (a run without scans) matches nothing.
         let matched = (nearest_s - t_s).abs() <= MATCH_TOLERANCE_S;
+        if !matched && (t_s < span_s.0 - MATCH_TOLERANCE_S || t_s > span_s.1 + MATCH_TOLERANCE_S) {
+            outside += 1;
+            continue;
+        }
         if !matched {
             return Err(EstimatesError::NoScanAt {
                 path: path.to_path_buf(),
@@ -330,24 +352,25 @@ pub fn per_scan_from_tum(
             Vector2::new(x, y).into(),
             UnitComplex::new(yaw),
         ));
-        seen = true;
     }
     if !seen {
         return Err(EstimatesError::Empty {
             path: path.to_path_buf(),
         });
     }
-    Ok(poses)
+    Ok((poses, outside))
 }
 
-/// The per-pair motions of a CSV with the header [`PAIR_CSV_HEADER`], one slot per pair.
+/// The per-pair motions of a CSV with the header [`PAIR_CSV_HEADER`], one slot per pair, and
+/// how many rows are of pairs the run does not register (left unused).
 pub fn per_pair_from_csv(
     text: &str,
     path: &Path,
     pairs: &[ScanPair],
-) -> Result<Vec<Option<Isometry2<f64>>>, EstimatesError> {
+) -> Result<(Slots, usize), EstimatesError> {
     const FIELDS: [&str; 5] = ["source", "reference", "tx_m", "ty_m", "theta_deg"];
     let mut out = vec![None; pairs.len()];
+    let mut unused = 0;
     let mut header = true;
     for (line, raw) in content_lines(text) {
         let cells: Vec<&str> = raw.split(',').map(str::trim).collect();
@@ -388,23 +411,25 @@ pub fn per_pair_from_csv(
         let theta = number(path, line, FIELDS[4], cells[4])?;
         // A row for a pair the run does not register is not an error (another run's pairs,
         // a subset by --scans): it is left unused.
-        if let Some(slot) = pairs.iter().position(|p| *p == pair) {
-            if out[slot].is_some() {
-                return Err(EstimatesError::Duplicate {
-                    path: path.to_path_buf(),
-                    line,
-                    what: format!("pair {} → {}", pair.source, pair.reference),
-                });
-            }
-            out[slot] = Some(Isometry2::new(Vector2::new(tx, ty), theta.to_radians()));
+        let Some(slot) = pairs.iter().position(|p| *p == pair) else {
+            unused += 1;
+            continue;
+        };
+        if out[slot].is_some() {
+            return Err(EstimatesError::Duplicate {
+                path: path.to_path_buf(),
+                line,
+                what: format!("pair {} → {}", pair.source, pair.reference),
+            });
         }
+        out[slot] = Some(Isometry2::new(Vector2::new(tx, ty), theta.to_radians()));
     }
     if header {
         return Err(EstimatesError::Empty {
             path: path.to_path_buf(),
         });
     }
-    Ok(out)
+    Ok((out, unused))
 }
 
 #[cfg(test)]
@@ -452,7 +477,7 @@ mod tests {
                 per_scan_from_tum(&text, path, &times),
                 per_pair_from_csv(&text, path, &pairs()),
             ];
-            for p in read.into_iter().flatten().flatten().flatten() {
+            for p in read.into_iter().flatten().flat_map(|(poses, _)| poses).flatten() {
                 prop_assert!(p.translation.vector.iter().all(|v| v.is_finite()));
                 prop_assert!(p.rotation.angle().is_finite());
             }
@@ -475,7 +500,8 @@ mod tests {
                     format!("{:.6} {x:.12} {y:.12} 0 0 0 {s:.12} {c:.12}\n", t + j)
                 })
                 .collect();
-            let read = per_scan_from_tum(&text, Path::new("p.tum"), &times).unwrap();
+            let (read, outside) = per_scan_from_tum(&text, Path::new("p.tum"), &times).unwrap();
+            prop_assert_eq!(outside, 0);
             for (got, &(x, y, yaw)) in read.iter().zip(&poses) {
                 let got = got.unwrap();
                 prop_assert!((got.translation.x - x).abs() < 1e-9);

@@ -448,9 +448,17 @@ pub fn table_md(report: &RunReport) -> String {
             "External estimators (`--estimates`), evaluated on the same pairs and assessed at their poses by the same flags (no iterations, timing or covariance of theirs are known here):\n"
         );
         for e in &report.config.estimates {
+            let unused = if e.unused > 0 {
+                format!(
+                    "; {} estimates of the file for no pair of this run, unused",
+                    e.unused
+                )
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 out,
-                "- {}: {} ({}, SHA-256 {}), an estimate for {} of the {} pairs",
+                "- {}: {} ({}, SHA-256 {}), an estimate for {} of the {} pairs{unused}",
                 e.name,
                 e.path.display(),
                 e.format,

@@ -91,6 +91,26 @@ fn a_tum_file_of_the_reference_gives_the_true_motions_and_a_missing_scan_fails_i
     }
 }
 
+/// A trajectory of the whole log read for a run on its first scans: the poses beyond the
+/// run are left unused and counted, every pair of the run has its estimate.
+#[test]
+fn tum_poses_outside_the_run_are_counted_and_left_unused() {
+    let ds = dataset();
+    let dir = written(&ds, "estimates_outside");
+    let short = generate(&Scenario {
+        n_scans: 8,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let (pairs, _) = short.consecutive_pairs();
+    let e = load("REF", &dir.join("reference.tum"), &times(&short), &pairs).unwrap();
+    assert_eq!(e.source.unused, ds.scans.len() - short.scans.len());
+    assert_eq!(e.source.pairs_estimated, pairs.len());
+    for (p, m) in pairs.iter().zip(&e.per_pair) {
+        assert_same(&m.unwrap(), &truth(&short, *p));
+    }
+}
+
 #[test]
 fn a_pair_csv_gives_its_rows_and_leaves_pairs_without_one_empty() {
     let ds = dataset();
@@ -104,6 +124,7 @@ fn a_pair_csv_gives_its_rows_and_leaves_pairs_without_one_empty() {
     let path = dir.join("motions.csv");
     std::fs::write(&path, csv).unwrap();
     let e = load("CSV", &path, &times(&ds), &pairs).unwrap();
+    assert_eq!(e.source.unused, 1, "the row of pair 100 → 101");
     for (p, m) in pairs.iter().zip(&e.per_pair) {
         match m {
             Some(m) => assert_same(m, &truth(&ds, *p)),
@@ -141,8 +162,13 @@ fn bad_files_are_refused_with_the_file_line_and_field() {
         ),
         (
             "clock.tum",
-            "# c\n1000 1 2 0 0 0 0 1\n".into(),
-            "line 2: the pose at t = 1000 s",
+            format!("# c\n{} 1 2 0 0 0 0 1\n", t1 + 0.05),
+            "line 2: the pose at t = ",
+        ),
+        (
+            "outside.tum",
+            "1000 1 2 0 0 0 0 1\n".into(),
+            "no estimates for the pairs of this run",
         ),
         (
             "twice.tum",
