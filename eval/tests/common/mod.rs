@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The data not in the repository (`marina_dir`, ...): the datasets crate's test helper.
-#[path = "../../datasets/tests/common/data.rs"]
+#[path = "../../../datasets/tests/common/data.rs"]
 pub mod data;
 
 /// The variables that shard a run (Slurm arrays, Kubernetes indexed Jobs): inherited from a
