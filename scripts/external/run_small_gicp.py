@@ -51,7 +51,7 @@ def main() -> None:
         "extrude_m": a.extrude_m,
         "defaults": f"small_gicp.align {version('small_gicp')} (see run_small_gicp.py)",
     }
-    pairwise.run(a.dataset, a.out, a.stats, f"small_gicp {a.method}", params, align)
+    pairwise.run(a.dataset, a.out, a.stats, f"small_gicp {a.method}" + (f" extruded ±{a.extrude_m} m" if a.extrude_m else ""), params, align)
 
 
 if __name__ == "__main__":

@@ -153,14 +153,14 @@ def points_3d(points_m: np.ndarray) -> np.ndarray:
     return np.column_stack((points_m, np.zeros(len(points_m))))
 
 
-def planar(t_4x4: np.ndarray) -> tuple[float, float, float, float]:
+def planar(t_4x4: np.ndarray) -> tuple[float, float, float, float, float]:
     """A 3D rigid transform's planar part `(tx_m, ty_m, theta_deg)` and how far it leaves the
-    plane (the largest of |tz| in metres and the roll/pitch tilt in radians): a tool working
-    in 3D on z = 0 points may move out of the plane a little; that part is dropped."""
+    plane, `|tz|` in metres and the roll/pitch tilt in degrees: a tool working in 3D on planar
+    points may move out of the plane; that part is dropped."""
     rot = t_4x4[:3, :3]
     theta_rad = math.atan2(rot[1, 0], rot[0, 0])
     tilt_rad = math.acos(max(-1.0, min(1.0, rot[2, 2])))
-    return t_4x4[0, 3], t_4x4[1, 3], math.degrees(theta_rad), max(abs(t_4x4[2, 3]), tilt_rad)
+    return t_4x4[0, 3], t_4x4[1, 3], math.degrees(theta_rad), abs(t_4x4[2, 3]), math.degrees(tilt_rad)
 
 
 def write_pair_csv(path: Path, rows: list[tuple[int, int, float, float, float]]) -> None:
