@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Redoes reports/external/: installs the pinned tools when missing, checks their frames on a
 # known motion, runs every tool on aces, the synthetic harbour and marina, then icp-eval compare
-# with the built-in variants and the tools' estimates (--init identity and global), and the
-# tables. Run from anywhere; it works from the repository root so the paths it records are
+# with the built-in variants and the tools' estimates (--init identity and global), checks the
+# readers against icp-eval's pairs.csv, and writes the tables. Run from anywhere; it works from the repository root so the paths it records are
 # relative. Not called from .ci/run (heavy installs).
 #
 #   scripts/external/run-all.sh
@@ -105,6 +105,15 @@ else
     echo "skipping marina: no $MARINA_DIR/ranges.mat (set ICP_DATA_DIR=...)" >&2
 fi
 
-# 6. The tables.
+# 6. Our readers gave the tools icp-eval's own points (its pairs.csv, recomputed from them).
+"$PY" "$S/check_readers.py" --dataset "csv:$SYNTH" --run "$OUT/synthetic-paper/global" --variant SG_GICP
+if [ -f "$ACES" ]; then
+    "$PY" "$S/check_readers.py" --dataset "carmen:$ACES" --run "$OUT/aces/global" --variant SG_GICP
+fi
+if [ -f "$MARINA_DIR/ranges.mat" ]; then
+    "$PY" "$S/check_readers.py" --dataset "marina:$MARINA_DIR" --run "$OUT/marina/global" --variant SG_GICP
+fi
+
+# 7. The tables.
 "$PY" "$S/tables.py" "${datasets[@]}" >"$OUT/tables.md"
 echo "wrote $OUT/tables.md"
