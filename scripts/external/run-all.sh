@@ -60,7 +60,7 @@ tools() {
         "SG_PLANE_X run_small_gicp.py --method PLANE_ICP --extrude-m 0.5"
         "O3D_ICP run_open3d.py"
     )
-    local run name script
+    local run name script args
     for run in "${runs[@]}"; do
         read -r name script args <<<"$run"
         # shellcheck disable=SC2086  # args are words
@@ -86,33 +86,24 @@ compare() {
     done
 }
 
+# 6. One dataset: the tools, the two runs, and the check that our readers gave the tools
+#    icp-eval's own points (its pairs.csv recomputed from them). $1: the folder under $OUT,
+#    $2: the tools' dataset, $3: icp-eval's, $4: a file it needs (skipped when absent).
 datasets=()
-if [ -f "$ACES" ]; then
-    tools "carmen:$ACES" "$OUT/aces"
-    compare "carmen:$ACES" "$OUT/aces"
-    datasets+=("$OUT/aces")
-else
-    echo "skipping aces: no $ACES (set ACES=...)" >&2
-fi
-tools "csv:$SYNTH" "$OUT/synthetic-paper"
-compare synthetic:paper "$OUT/synthetic-paper"
-datasets+=("$OUT/synthetic-paper")
-if [ -f "$MARINA_DIR/ranges.mat" ]; then
-    tools "marina:$MARINA_DIR" "$OUT/marina"
-    compare "marina?data_dir=$MARINA_DIR" "$OUT/marina"
-    datasets+=("$OUT/marina")
-else
-    echo "skipping marina: no $MARINA_DIR/ranges.mat (set ICP_DATA_DIR=...)" >&2
-fi
-
-# 6. Our readers gave the tools icp-eval's own points (its pairs.csv, recomputed from them).
-"$PY" "$S/check_readers.py" --dataset "csv:$SYNTH" --run "$OUT/synthetic-paper/global" --variant SG_GICP
-if [ -f "$ACES" ]; then
-    "$PY" "$S/check_readers.py" --dataset "carmen:$ACES" --run "$OUT/aces/global" --variant SG_GICP
-fi
-if [ -f "$MARINA_DIR/ranges.mat" ]; then
-    "$PY" "$S/check_readers.py" --dataset "marina:$MARINA_DIR" --run "$OUT/marina/global" --variant SG_GICP
-fi
+dataset() {
+    local name=$1 tools_ds=$2 eval_ds=$3 needs=$4
+    if [ ! -e "$needs" ]; then
+        echo "skipping $name: no $needs (see the variables at the top)" >&2
+        return
+    fi
+    tools "$tools_ds" "$OUT/$name"
+    compare "$eval_ds" "$OUT/$name"
+    "$PY" "$S/check_readers.py" --dataset "$tools_ds" --run "$OUT/$name/global" --variant SG_GICP
+    datasets+=("$OUT/$name")
+}
+dataset aces "carmen:$ACES" "carmen:$ACES" "$ACES"
+dataset synthetic-paper "csv:$SYNTH" synthetic:paper "$SYNTH/scans.csv"
+dataset marina "marina:$MARINA_DIR" "marina?data_dir=$MARINA_DIR" "$MARINA_DIR/ranges.mat"
 
 # 7. The tables.
 "$PY" "$S/tables.py" "${datasets[@]}" >"$OUT/tables.md"
