@@ -88,6 +88,10 @@ pub struct GateOutcome {
     pub checked: usize,
     /// Those that regressed.
     pub regressions: Vec<Regression>,
+    /// What the reader needs to read them right (the runs' populations differ; an external
+    /// estimator's file changed).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
 /// The gated metrics of one variant: `(key, value, which way is better)`.
@@ -206,7 +210,32 @@ pub fn gate(baseline: &RunReport, current: &RunReport, tolerances: &Tolerances) 
     GateOutcome {
         checked,
         regressions,
+        notes: notes(baseline, current),
     }
+}
+
+/// Why a variant's figures may have moved without the variant changing: its statistics are
+/// over the run's population (the pairs every variant registered), and an external
+/// estimator's are those of its file.
+fn notes(baseline: &RunReport, current: &RunReport) -> Vec<String> {
+    let mut out = Vec::new();
+    let (b, c) = (&baseline.population, &current.population);
+    if b.pairs != c.pairs || b.left_out != c.left_out {
+        out.push(format!(
+            "the populations differ ({} pairs in the baseline, {} now): every variant's statistics are over the pairs every variant registered, so a change in any variant's failures (or in the variants run) moves every variant's figures",
+            b.pairs, c.pairs
+        ));
+    }
+    for e in &baseline.config.estimates {
+        match current.config.estimates.iter().find(|n| n.name == e.name) {
+            Some(n) if n.sha256 != e.sha256 => out.push(format!(
+                "external estimator {}: its file changed (SHA-256 {} → {})",
+                e.name, e.sha256, n.sha256
+            )),
+            _ => {}
+        }
+    }
+    out
 }
 
 /// A readable table of the outcome.
@@ -217,6 +246,9 @@ pub fn outcome_md(outcome: &GateOutcome) -> String {
         outcome.checked,
         outcome.regressions.len()
     );
+    for n in &outcome.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
     if !outcome.regressions.is_empty() {
         let _ = writeln!(s, "\n| variant | metric | baseline | current | allowed |\n| --- | --- | ---: | ---: | ---: |");
         for r in &outcome.regressions {

@@ -640,6 +640,7 @@ fn run_one(args: RunArgs) -> Result<ExitCode> {
         return run_shard_cmd(&ds, specs, work, shard, &args.out, &args.common);
     }
     let setup = args.run_options()?.setup(&specs, &ds)?;
+    note_estimates(&setup);
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", eval::output::table_md(&report));
     Ok(ExitCode::SUCCESS)
@@ -672,6 +673,7 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         return run_shard_cmd(&ds, variants, work, shard, &run.out, &run.common);
     }
     let setup = run.run_options()?.setup(&variants, &ds)?;
+    note_estimates(&setup);
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     write_compare(&mut dir, &report, &options)?;
     if let Some(SweepPlan { param, values }) = sweep {
@@ -682,6 +684,32 @@ fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         write_sweep(&mut dir, &result, !run.common.no_plots)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Says on the terminal what an external estimates file held that the run does not use (also
+/// in table.md): a count that is not 0 may be a file of another run, or of a 3D estimator.
+fn note_estimates(setup: &EvalSetup) {
+    for e in &setup.estimates {
+        let s = &e.source;
+        if s.unused > 0 {
+            eprintln!(
+                "note: --estimates {}: {} of the estimates in {} are for no pair of this run (left unused)",
+                s.name,
+                s.unused,
+                s.path.display()
+            );
+        }
+        if s.tilted_poses > 0 {
+            eprintln!(
+                "note: --estimates {}: {} poses of {} are tilted more than {}° out of the plane (up to {:.1}°): their roll and pitch are dropped",
+                s.name,
+                s.tilted_poses,
+                s.path.display(),
+                eval::estimates::TILT_NOTE_DEG,
+                s.max_tilt_deg
+            );
+        }
+    }
 }
 
 /// Writes and prints `compare.md` and `compare.json` of `report`.

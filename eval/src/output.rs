@@ -4,6 +4,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use crate::estimates::TILT_NOTE_DEG;
 use crate::published;
 use crate::reference::ReferenceChecks;
 use crate::report::{ErrorStats, RunReport};
@@ -448,14 +449,19 @@ pub fn table_md(report: &RunReport) -> String {
             "External estimators (`--estimates`), evaluated on the same pairs and assessed at their poses by the same flags (no iterations, timing or covariance of theirs are known here):\n"
         );
         for e in &report.config.estimates {
-            let unused = if e.unused > 0 {
-                format!(
+            let mut unused = String::new();
+            if e.unused > 0 {
+                unused += &format!(
                     "; {} estimates of the file for no pair of this run, unused",
                     e.unused
-                )
-            } else {
-                String::new()
-            };
+                );
+            }
+            if e.tilted_poses > 0 {
+                unused += &format!(
+                    "; {} poses tilted more than {TILT_NOTE_DEG}° out of the plane (up to {:.1}°), their roll and pitch dropped",
+                    e.tilted_poses, e.max_tilt_deg
+                );
+            }
             let _ = writeln!(
                 out,
                 "- {}: {} ({}, SHA-256 {}), an estimate for {} of the {} pairs{unused}",

@@ -111,6 +111,39 @@ fn tum_poses_outside_the_run_are_counted_and_left_unused() {
     }
 }
 
+/// Roll and pitch are dropped (the run is planar), and a pose tilted beyond 1° is counted with
+/// the largest tilt: a 3D estimator gone wrong shows in the report.
+#[test]
+fn tilted_tum_poses_are_counted() {
+    let ds = dataset();
+    let (pairs, _) = ds.consecutive_pairs();
+    let t = times(&ds);
+    // Scan 0 level and turned 30°, scan 1 pitched 10° (about y), scan 2 rolled 0.5°.
+    let (s30, c30) = 15f64.to_radians().sin_cos();
+    let (s10, c10) = 5f64.to_radians().sin_cos();
+    let (s05, c05) = 0.25f64.to_radians().sin_cos();
+    let text = format!(
+        "{} 0 0 0 0 0 {s30} {c30}\n{} 1 0 0 0 {s10} 0 {c10}\n{} 2 0 0 {s05} 0 0 {c05}\n",
+        t[0], t[1], t[2]
+    );
+    let path = common::scratch_dir("estimates_tilt").join("tilt.tum");
+    std::fs::write(&path, text).unwrap();
+    let e = load("T", &path, &t, &pairs).unwrap();
+    assert_eq!(e.source.tilted_poses, 1);
+    assert!(
+        (e.source.max_tilt_deg - 10.0).abs() < 1e-9,
+        "{}",
+        e.source.max_tilt_deg
+    );
+    // The yaws: 30°, 0 (a pitch has none), 0.
+    let m01 = e.per_pair[0].unwrap();
+    assert!(
+        (m01.rotation.angle().to_degrees() - 30.0).abs() < 1e-9,
+        "{m01}"
+    );
+    assert_eq!(e.source.pairs_estimated, 2);
+}
+
 #[test]
 fn a_pair_csv_gives_its_rows_and_leaves_pairs_without_one_empty() {
     let ds = dataset();
@@ -120,11 +153,11 @@ fn a_pair_csv_gives_its_rows_and_leaves_pairs_without_one_empty() {
     for p in pairs.iter().filter(|p| p.source != 3) {
         csv += &csv_row(*p, &truth(&ds, *p));
     }
-    csv += "100,101,1,2,3\n"; // a pair this run does not have: unused
+    csv += "2,4,1,2,3\n"; // a pair this run does not register: unused
     let path = dir.join("motions.csv");
     std::fs::write(&path, csv).unwrap();
     let e = load("CSV", &path, &times(&ds), &pairs).unwrap();
-    assert_eq!(e.source.unused, 1, "the row of pair 100 → 101");
+    assert_eq!(e.source.unused, 1, "the row of pair 2 → 4");
     for (p, m) in pairs.iter().zip(&e.per_pair) {
         match m {
             Some(m) => assert_same(m, &truth(&ds, *p)),
@@ -143,7 +176,7 @@ fn bad_files_are_refused_with_the_file_line_and_field() {
         (
             "fields.tum",
             "0 1 2 0 0 0 1\n".into(),
-            "line 1, line: 7 fields",
+            "line 1, fields: 7 fields",
         ),
         (
             "nan.tum",
@@ -184,7 +217,7 @@ fn bad_files_are_refused_with_the_file_line_and_field() {
         (
             "cells.csv",
             "source,reference,tx_m,ty_m,theta_deg\n0,1,2\n".into(),
-            "line 2, line: 3 cells",
+            "line 2, fields: 3 cells",
         ),
         (
             "index.csv",
@@ -195,6 +228,16 @@ fn bad_files_are_refused_with_the_file_line_and_field() {
             "dup.csv",
             "source,reference,tx_m,ty_m,theta_deg\n0,1,1,2,3\n0,1,1,2,3\n".into(),
             "line 3: a second estimate for pair 0 → 1",
+        ),
+        (
+            "one-based.csv",
+            "source,reference,tx_m,ty_m,theta_deg\n11,12,1,2,3\n".into(),
+            "line 2, reference: scan 12, but the dataset has 12 scans (0 to 11): is the file 1-based",
+        ),
+        (
+            "other-header.csv",
+            "k,k1,dx,dy,dtheta\n0,1,1,2,3\n".into(),
+            "line 1, header: \"k,k1,dx,dy,dtheta\", expected",
         ),
         (
             "none.csv",

@@ -118,7 +118,11 @@ fn external_estimators_get_compare_verdicts_and_are_gated() {
         ])
     };
     ok(gate(&base));
-    let worse = compare(&dir, "worse", &[truth, format!("MINE={}", large.display())]);
+    let worse = compare(
+        &dir,
+        "worse",
+        &[truth.clone(), format!("MINE={}", large.display())],
+    );
     let o = gate(&worse);
     assert_eq!(
         o.status.code(),
@@ -134,4 +138,34 @@ fn external_estimators_get_compare_verdicts_and_are_gated() {
         .collect();
     assert!(!rows.is_empty(), "{text}");
     assert!(rows.iter().all(|l| l.starts_with("| MINE |")), "{text}");
+    assert!(
+        text.contains("note: external estimator MINE: its file changed"),
+        "{text}"
+    );
+    assert!(!text.contains("populations differ"), "{text}");
+    // A file without scan 10's pose: pairs 9→10 and 10→11 are MINE's failures and leave
+    // every variant's statistics; the gate says so.
+    let cut: String = std::fs::read_to_string(&small)
+        .unwrap()
+        .lines()
+        .enumerate()
+        .filter(|(k, _)| *k != 10)
+        .map(|(_, l)| format!("{l}\n"))
+        .collect();
+    let cut_path = dir.join("cut.tum");
+    std::fs::write(&cut_path, cut).unwrap();
+    let fewer = compare(
+        &dir,
+        "fewer",
+        &[
+            format!("TRUTH={}", reference.display()),
+            format!("MINE={}", cut_path.display()),
+        ],
+    );
+    let o = gate(&fewer);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("note: the populations differ (29 pairs in the baseline, 27 now)"),
+        "{text}"
+    );
 }

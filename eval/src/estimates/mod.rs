@@ -9,7 +9,12 @@
 //!   inside it and near no scan is an error (another clock, or the file of another run). A pair's motion is `t_ref_src = pose_ref⁻¹ · pose_src`, and
 //!   a pair with a scan the file has no pose for has no estimate (a failure of the estimator).
 //! - A CSV of per-pair motions with the header `source,reference,tx_m,ty_m,theta_deg`
-//!   (`t_ref_src`, as in pairs.csv): a pair without a row has no estimate.
+//!   (`t_ref_src`, as in pairs.csv): a pair without a row has no estimate, a row of a pair
+//!   the run does not register is counted and left unused, a row naming a scan the dataset
+//!   does not have is an error (a 1-based file, or another log's).
+//!
+//! A file whose first line holds a comma is the CSV (its header checked), any other TUM.
+//! Readers: [`tum`] and [`pair_csv`].
 //!
 //! `icp-eval run` and `compare` take `--estimates NAME=FILE` ([`EstimatesSpec`]); the runner
 //! assesses each estimate at its pose like a registration ([`icp_core::assess`]: the same
@@ -21,9 +26,15 @@
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use nalgebra::{Isometry2, UnitComplex, Vector2};
+use nalgebra::Isometry2;
 
 use datasets::ScanPair;
+
+mod pair_csv;
+mod tum;
+
+pub use pair_csv::per_pair_from_csv;
+pub use tum::per_scan_from_tum;
 
 /// A TUM pose belongs to a scan when their times differ by at most this, s: far above the
 /// rounding of TUM files (1 µs at 6 decimals), far below any scan spacing (25 ms at 40 Hz).
@@ -32,8 +43,10 @@ pub const MATCH_TOLERANCE_S: f64 = 1e-3;
 /// The CSV header of per-pair motions.
 pub const PAIR_CSV_HEADER: &str = "source,reference,tx_m,ty_m,theta_deg";
 
-/// A unit quaternion's norm may be off by this much (rounded text) before it is refused.
-const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
+/// A TUM pose tilted more than this out of the plane (roll and pitch, dropped: the run is
+/// planar) is counted in [`ExternalSource::tilted_poses`], degrees: far above the tilt a
+/// planar estimator's rounding leaves, below any real tilt of a 3D estimator gone wrong.
+pub const TILT_NOTE_DEG: f64 = 1.0;
 
 /// Why an estimates file cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -124,6 +137,26 @@ pub struct ExternalSource {
     /// time span, CSV rows of pairs the run does not register.
     #[serde(default)]
     pub unused: usize,
+    /// TUM poses tilted more than [`TILT_NOTE_DEG`] out of the plane (their roll and pitch
+    /// dropped), and the largest tilt, degrees (0 for a CSV).
+    #[serde(default)]
+    pub tilted_poses: usize,
+    /// The largest tilt of a pose out of the plane, degrees.
+    #[serde(default)]
+    pub max_tilt_deg: f64,
+}
+
+/// What a reader found: one slot per scan (TUM) or pair (CSV), and what it left aside.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Read {
+    /// The estimates.
+    pub slots: Slots,
+    /// Estimates for no scan or pair of the run, left unused.
+    pub unused: usize,
+    /// Poses tilted more than [`TILT_NOTE_DEG`] out of the plane.
+    pub tilted: usize,
+    /// The largest tilt, degrees.
+    pub max_tilt_deg: f64,
 }
 
 /// One external estimator's motions on the pairs of a run.
@@ -153,7 +186,7 @@ impl FromStr for EstimatesSpec {
     /// `NAME=FILE`, the file read for its hash.
     fn from_str(spec: &str) -> Result<Self, EstimatesError> {
         let (name, path) = parse_spec(spec)?;
-        let sha256 = datasets::FileProvenance::of(path.clone(), &read(&path)?).sha256;
+        let sha256 = datasets::FileProvenance::of(path.clone(), &read_file(&path)?).sha256;
         Ok(Self { name, path, sha256 })
     }
 }
@@ -180,7 +213,7 @@ impl EstimatesSpec {
     }
 }
 
-fn read(path: &Path) -> Result<Vec<u8>, EstimatesError> {
+fn read_file(path: &Path) -> Result<Vec<u8>, EstimatesError> {
     std::fs::read(path).map_err(|source| EstimatesError::Io {
         path: path.to_path_buf(),
         source,
@@ -204,26 +237,29 @@ pub fn load(
     scan_times_s: &[f64],
     pairs: &[ScanPair],
 ) -> Result<ExternalEstimates, EstimatesError> {
-    let bytes = read(path)?;
+    let bytes = read_file(path)?;
     let sha256 = datasets::FileProvenance::of(path.to_path_buf(), &bytes).sha256;
     let text = String::from_utf8_lossy(&bytes);
     let first = content_lines(&text).next().map(|(_, l)| l);
-    let format = if first.is_some_and(|l| l.starts_with("source")) {
+    let format = if first.is_some_and(|l| l.contains(',')) {
         EstimatesFormat::PairCsv
     } else {
         EstimatesFormat::Tum
     };
-    let (per_pair, unused): (Vec<_>, usize) = match format {
-        EstimatesFormat::PairCsv => per_pair_from_csv(&text, path, pairs)?,
+    let read = match format {
+        EstimatesFormat::PairCsv => per_pair_from_csv(&text, path, pairs, scan_times_s.len())?,
         EstimatesFormat::Tum => {
-            let (poses, unused) = per_scan_from_tum(&text, path, scan_times_s)?;
-            let per_pair = pairs
-                .iter()
-                .map(|p| Some(poses[p.reference]?.inverse() * poses[p.source]?))
-                .collect();
-            (per_pair, unused)
+            let poses = per_scan_from_tum(&text, path, scan_times_s)?;
+            Read {
+                slots: pairs
+                    .iter()
+                    .map(|p| Some(poses.slots[p.reference]?.inverse() * poses.slots[p.source]?))
+                    .collect(),
+                ..poses
+            }
         }
     };
+    let per_pair = read.slots;
     if per_pair.iter().all(Option::is_none) {
         return Err(EstimatesError::Empty {
             path: path.to_path_buf(),
@@ -236,12 +272,15 @@ pub fn load(
             sha256,
             format,
             pairs_estimated: per_pair.iter().flatten().count(),
-            unused,
+            unused: read.unused,
+            tilted_poses: read.tilted,
+            max_tilt_deg: read.max_tilt_deg,
         },
         per_pair,
     })
 }
 
+/// The finite number in `text`, or why not (naming the file, line and field).
 fn number(
     path: &Path,
     line: usize,
@@ -274,166 +313,9 @@ fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
         .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'))
 }
 
-/// The TUM poses of `text`, one slot per scan (`None`: no pose for that scan), and how many
-/// poses lie outside the scans' time span (left unused).
-pub fn per_scan_from_tum(
-    text: &str,
-    path: &Path,
-    scan_times_s: &[f64],
-) -> Result<(Slots, usize), EstimatesError> {
-    const FIELDS: [&str; 8] = ["timestamp", "x", "y", "z", "qx", "qy", "qz", "qw"];
-    let mut poses = vec![None; scan_times_s.len()];
-    let mut seen = false;
-    let mut outside = 0;
-    let span_s = scan_times_s
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &t| {
-            (lo.min(t), hi.max(t))
-        });
-    for (line, raw) in content_lines(text) {
-        let cells: Vec<&str> = raw.split_whitespace().collect();
-        if cells.len() != FIELDS.len() {
-            return Err(EstimatesError::Bad {
-                path: path.to_path_buf(),
-                line,
-                field: "line",
-                why: format!(
-                    "{} fields, a TUM line has 8 (timestamp x y z qx qy qz qw)",
-                    cells.len()
-                ),
-            });
-        }
-        let mut v = [0.0; 8];
-        for (k, cell) in cells.iter().enumerate() {
-            v[k] = number(path, line, FIELDS[k], cell)?;
-        }
-        let [t_s, x, y, _z, qx, qy, qz, qw] = v;
-        let norm = (qx * qx + qy * qy + qz * qz + qw * qw).sqrt();
-        if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
-            return Err(EstimatesError::Bad {
-                path: path.to_path_buf(),
-                line,
-                field: "qx qy qz qw",
-                why: format!("not a unit quaternion (norm {norm})"),
-            });
-        }
-        // The yaw of the rotation (a planar estimator's roll and pitch are zero).
-        let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
-        let (k, nearest_s) = scan_times_s
-            .iter()
-            .enumerate()
-            .map(|(k, s)| (k, *s))
-            .min_by(|a, b| (a.1 - t_s).abs().total_cmp(&(b.1 - t_s).abs()))
-            .unwrap_or((0, f64::NAN));
-        seen = true;
-        // NaN (a run without scans) matches nothing.
-        let matched = (nearest_s - t_s).abs() <= MATCH_TOLERANCE_S;
-        if !matched && (t_s < span_s.0 - MATCH_TOLERANCE_S || t_s > span_s.1 + MATCH_TOLERANCE_S) {
-            outside += 1;
-            continue;
-        }
-        if !matched {
-            return Err(EstimatesError::NoScanAt {
-                path: path.to_path_buf(),
-                line,
-                t_s,
-                tol_s: MATCH_TOLERANCE_S,
-                nearest_s,
-            });
-        }
-        if poses[k].is_some() {
-            return Err(EstimatesError::Duplicate {
-                path: path.to_path_buf(),
-                line,
-                what: format!("scan {k} (t = {nearest_s} s)"),
-            });
-        }
-        poses[k] = Some(Isometry2::from_parts(
-            Vector2::new(x, y).into(),
-            UnitComplex::new(yaw),
-        ));
-    }
-    if !seen {
-        return Err(EstimatesError::Empty {
-            path: path.to_path_buf(),
-        });
-    }
-    Ok((poses, outside))
-}
-
-/// The per-pair motions of a CSV with the header [`PAIR_CSV_HEADER`], one slot per pair, and
-/// how many rows are of pairs the run does not register (left unused).
-pub fn per_pair_from_csv(
-    text: &str,
-    path: &Path,
-    pairs: &[ScanPair],
-) -> Result<(Slots, usize), EstimatesError> {
-    const FIELDS: [&str; 5] = ["source", "reference", "tx_m", "ty_m", "theta_deg"];
-    let mut out = vec![None; pairs.len()];
-    let mut unused = 0;
-    let mut header = true;
-    for (line, raw) in content_lines(text) {
-        let cells: Vec<&str> = raw.split(',').map(str::trim).collect();
-        if header {
-            if cells != FIELDS {
-                return Err(EstimatesError::Bad {
-                    path: path.to_path_buf(),
-                    line,
-                    field: "header",
-                    why: format!("{raw:?}, expected {PAIR_CSV_HEADER:?}"),
-                });
-            }
-            header = false;
-            continue;
-        }
-        if cells.len() != FIELDS.len() {
-            return Err(EstimatesError::Bad {
-                path: path.to_path_buf(),
-                line,
-                field: "line",
-                why: format!("{} cells, expected 5 ({PAIR_CSV_HEADER})", cells.len()),
-            });
-        }
-        let index = |k: usize| -> Result<usize, EstimatesError> {
-            cells[k].parse().map_err(|_| EstimatesError::Bad {
-                path: path.to_path_buf(),
-                line,
-                field: FIELDS[k],
-                why: format!("{:?} is not a scan index", cells[k]),
-            })
-        };
-        let pair = ScanPair {
-            source: index(0)?,
-            reference: index(1)?,
-        };
-        let tx = number(path, line, FIELDS[2], cells[2])?;
-        let ty = number(path, line, FIELDS[3], cells[3])?;
-        let theta = number(path, line, FIELDS[4], cells[4])?;
-        // A row for a pair the run does not register is not an error (another run's pairs,
-        // a subset by --scans): it is left unused.
-        let Some(slot) = pairs.iter().position(|p| *p == pair) else {
-            unused += 1;
-            continue;
-        };
-        if out[slot].is_some() {
-            return Err(EstimatesError::Duplicate {
-                path: path.to_path_buf(),
-                line,
-                what: format!("pair {} → {}", pair.source, pair.reference),
-            });
-        }
-        out[slot] = Some(Isometry2::new(Vector2::new(tx, ty), theta.to_radians()));
-    }
-    if header {
-        return Err(EstimatesError::Empty {
-            path: path.to_path_buf(),
-        });
-    }
-    Ok((out, unused))
-}
-
 #[cfg(test)]
 mod tests {
+    use nalgebra::UnitComplex;
     use proptest::prelude::*;
 
     use super::*;
@@ -475,9 +357,9 @@ mod tests {
             let times: Vec<f64> = (0..6).map(|k| k as f64 * 0.2).collect();
             let read = [
                 per_scan_from_tum(&text, path, &times),
-                per_pair_from_csv(&text, path, &pairs()),
+                per_pair_from_csv(&text, path, &pairs(), 6),
             ];
-            for p in read.into_iter().flatten().flat_map(|(poses, _)| poses).flatten() {
+            for p in read.into_iter().flatten().flat_map(|r| r.slots).flatten() {
                 prop_assert!(p.translation.vector.iter().all(|v| v.is_finite()));
                 prop_assert!(p.rotation.angle().is_finite());
             }
@@ -500,9 +382,9 @@ mod tests {
                     format!("{:.6} {x:.12} {y:.12} 0 0 0 {s:.12} {c:.12}\n", t + j)
                 })
                 .collect();
-            let (read, outside) = per_scan_from_tum(&text, Path::new("p.tum"), &times).unwrap();
-            prop_assert_eq!(outside, 0);
-            for (got, &(x, y, yaw)) in read.iter().zip(&poses) {
+            let read = per_scan_from_tum(&text, Path::new("p.tum"), &times).unwrap();
+            prop_assert_eq!((read.unused, read.tilted), (0, 0));
+            for (got, &(x, y, yaw)) in read.slots.iter().zip(&poses) {
                 let got = got.unwrap();
                 prop_assert!((got.translation.x - x).abs() < 1e-9);
                 prop_assert!((got.translation.y - y).abs() < 1e-9);
