@@ -24,7 +24,7 @@ use sha2::{Digest, Sha256};
 use crate::dataset::{
     nominal_dt_s, Dataset, FileProvenance, Pose2, Provenance, ReferenceKind, ReferencePose,
 };
-use crate::DatasetError;
+use crate::{DatasetError, LoadWarning};
 
 /// The laser's angular layout and range limit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -257,7 +257,16 @@ pub fn parse<R: Read>(
             dt_s,
             sensor: options.sensor,
             bearing_sense: BearingSense::CounterClockwise,
-            warnings: assumed.into_iter().collect(),
+            // A CARMEN log carries no noise figures.
+            warnings: assumed
+                .into_iter()
+                .chain(
+                    (options.sensor == SICK_LMS2XX).then(|| LoadWarning::AssumedSensorModel {
+                        sensor: SICK_LMS2XX,
+                        of: "a SICK LMS 2xx".to_owned(),
+                    }),
+                )
+                .collect(),
         }
         .checked(),
         counts,

@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::{
     nominal_dt_s, Dataset, FileProvenance, Pose2, Provenance, ReferenceKind, ReferencePose,
 };
-use crate::DatasetError;
+use crate::{DatasetError, LoadWarning};
 
 /// Readings, one row each: `scan,timestamp_s,range_m,bearing_rad`, optionally followed by
 /// `true_normal_x,true_normal_y` (the true surface normal behind the return, unitless, scan
@@ -487,7 +487,17 @@ pub fn parse<R: Read>(
         dt_s,
         sensor,
         bearing_sense: meta.bearing_sense.unwrap_or(BearingSense::CounterClockwise),
-        warnings: assumed.into_iter().collect(),
+        warnings: assumed
+            .into_iter()
+            .chain(
+                meta.sensor
+                    .is_none()
+                    .then(|| LoadWarning::AssumedSensorModel {
+                        sensor,
+                        of: "the Scanse Sweep (the paper's scanner)".to_owned(),
+                    }),
+            )
+            .collect(),
     };
     if let Some(dt) = meta.dt_s {
         ds.set_dt_s(dt)?;

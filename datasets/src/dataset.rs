@@ -166,6 +166,15 @@ pub enum LoadWarning {
         /// Messages skipped.
         messages: usize,
     },
+    /// The data do not say how noisy the scanner is: the loader's default model was assumed
+    /// (a ROS `LaserScan`, a CARMEN log, a CSV directory whose dataset.json gives none). The
+    /// weights of eqs. 12–13, the surface metrics' covariances and the noise bound use it.
+    AssumedSensorModel {
+        /// The model assumed.
+        sensor: SensorModel,
+        /// Which scanner it is the model of.
+        of: String,
+    },
 }
 
 /// Which pose channel of a dataset a figure was measured on.
@@ -202,6 +211,15 @@ impl fmt::Display for LoadWarning {
                     PoseChannel::Reference => "reference",
                     PoseChannel::Odometry => "odometry",
                 }
+            ),
+            Self::AssumedSensorModel { sensor, of } => write!(
+                f,
+                "the data give no sensor model: {of}'s assumed (σ_r = {} m + {}·r, σ_α = {:.3}°); \
+                 the weights, the surface covariances and the noise bound use it: give the \
+                 scanner's with --sensor",
+                sensor.sigma_r_const_m,
+                sensor.sigma_r_per_m,
+                sensor.sigma_alpha_rad.to_degrees()
             ),
             Self::AssumedScanSpacing { dt_s } => write!(
                 f,

@@ -247,11 +247,18 @@ fn odometry_is_read_and_a_copy_of_the_poses_is_flagged() {
     assert_eq!(ds.sensor, carmen::SICK_LMS2XX);
     assert_eq!(
         ds.warnings,
-        vec![LoadWarning::OdometryEqualsReference { steps: 2 }]
+        vec![
+            assumed_sick(),
+            LoadWarning::OdometryEqualsReference { steps: 2 }
+        ]
+    );
+    assert_eq!(
+        ds.warnings[1].to_string(),
+        "the odometry equals the reference (all 2 steps within 1 mm and 0.05°): no independent odometry"
     );
     assert_eq!(
         ds.warnings[0].to_string(),
-        "the odometry equals the reference (all 2 steps within 1 mm and 0.05°): no independent odometry"
+        "the data give no sensor model: a SICK LMS 2xx's assumed (σ_r = 0.01 m + 0·r, σ_α = 0.500°); the weights, the surface covariances and the noise bound use it: give the scanner's with --sensor"
     );
     // The same motion in another odometry frame (turned and moved) is still the same motion.
     let turned = |x: f64, y: f64, th: f64| (10.0 - y, 5.0 + x, th + std::f64::consts::FRAC_PI_2);
@@ -263,7 +270,10 @@ fn odometry_is_read_and_a_copy_of_the_poses_is_flagged() {
         .collect();
     assert_eq!(
         parse_log(&lines).warnings,
-        vec![LoadWarning::OdometryEqualsReference { steps: 2 }]
+        vec![
+            assumed_sick(),
+            LoadWarning::OdometryEqualsReference { steps: 2 }
+        ]
     );
 }
 
@@ -277,7 +287,15 @@ fn independent_odometry_is_not_flagged() {
     ];
     let ds = parse_log(&lines);
     assert_eq!(ds.odometry.as_ref().unwrap()[2].x_m, 0.62);
-    assert_eq!(ds.warnings, vec![]);
+    assert_eq!(ds.warnings, vec![assumed_sick()]);
+}
+
+/// A CARMEN log gives no noise figures: the SICK LMS 2xx model is assumed, and said.
+fn assumed_sick() -> LoadWarning {
+    LoadWarning::AssumedSensorModel {
+        sensor: carmen::SICK_LMS2XX,
+        of: "a SICK LMS 2xx".to_owned(),
+    }
 }
 
 /// Median steps beyond 2 m or 5° are flagged, measured on the reference.
@@ -378,7 +396,7 @@ fn aces_has_no_independent_odometry_and_large_steps() {
     let path = data::aces_log();
     let ds = carmen::load(&path, &CarmenOptions::default()).unwrap();
     assert_eq!(ds.scans.len(), 440);
-    let [LoadWarning::OdometryEqualsReference { steps: 439 }, LoadWarning::LargeSteps {
+    let [LoadWarning::AssumedSensorModel { .. }, LoadWarning::OdometryEqualsReference { steps: 439 }, LoadWarning::LargeSteps {
         median_step_m,
         median_turn_deg,
         measured_on: PoseChannel::Reference,

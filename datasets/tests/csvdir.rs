@@ -378,19 +378,27 @@ fn broken_odometry_files_name_the_file_line_and_problem() {
     );
 }
 
-/// Scans without timestamps and no `dt_s`: 1 s is assumed, and the dataset says so.
+/// Scans without timestamps and no `dt_s`: 1 s is assumed; no sensor model: the Sweep's is
+/// assumed; the dataset says both. Given in dataset.json, neither is said.
 #[test]
-fn an_assumed_spacing_is_a_warning() {
+fn an_assumed_spacing_and_sensor_model_are_warnings() {
     let untimed =
         "scan,timestamp_s,range_m,bearing_rad\n0,,5,0\n0,,6,1\n0,,7,2\n1,,5,0\n1,,6,1\n1,,7,2\n";
     let ds = parse(untimed, None).unwrap();
     assert_eq!(ds.dt_s, 1.0);
     assert_eq!(
         ds.warnings,
-        vec![LoadWarning::AssumedScanSpacing { dt_s: 1.0 }]
+        vec![
+            LoadWarning::AssumedScanSpacing { dt_s: 1.0 },
+            LoadWarning::AssumedSensorModel {
+                sensor: icp_core::SensorModel::sweep(),
+                of: "the Scanse Sweep (the paper's scanner)".to_owned()
+            }
+        ]
     );
     let given = DatasetMeta {
         dt_s: Some(0.25),
+        sensor: Some(icp_core::SensorModel::sweep()),
         ..DatasetMeta::default()
     };
     let ds = parse_with(untimed, None, None, &given).unwrap();

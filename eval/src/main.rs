@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use datasets::synthetic::{self, Scenario};
-use datasets::{marina, Dataset, DatasetSource};
+use datasets::{marina, Dataset, DatasetSource, LoadWarning};
 use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::consistency::CovarianceMode;
@@ -1044,6 +1044,20 @@ fn load_dataset(args: &DataArgs) -> Result<Dataset> {
     let mut ds = source.open()?;
     if let Some(overrides) = &args.sensor {
         ds.sensor = overrides.apply(ds.sensor).context("--sensor")?;
+        // The model is the user's where --sensor gives it: an assumed one no longer is, or is
+        // only in part.
+        let whole = overrides.sigma_r_const_m.is_some()
+            && overrides.sigma_r_per_m.is_some()
+            && overrides.sigma_alpha_deg.is_some();
+        let effective = ds.sensor;
+        ds.warnings.retain_mut(|w| match w {
+            LoadWarning::AssumedSensorModel { sensor, of } => {
+                *sensor = effective;
+                *of = format!("{of}, with --sensor's values");
+                !whole
+            }
+            _ => true,
+        });
     }
     Ok(ds)
 }

@@ -465,6 +465,59 @@ fn sensor_model_reference_kind_and_warnings_reach_the_reports() {
     );
 }
 
+/// Data without a sensor model (a dataset.json without one): the assumed model is a load
+/// warning; a partial `--sensor` keeps it with the values the run used, a whole one ends it.
+#[test]
+fn an_assumed_sensor_model_is_said_until_sensor_gives_the_whole_model() {
+    let dir = common::scratch_dir("cli_assumed_sensor");
+    let ds = datasets::synthetic::generate(&datasets::synthetic::Scenario {
+        n_scans: 4,
+        ..datasets::synthetic::Scenario::paper()
+    })
+    .unwrap();
+    let data = dir.join("data");
+    datasets::csvdir::write(&data, &ds).unwrap();
+    let meta_path = data.join("dataset.json");
+    let mut meta: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&meta_path).unwrap()).unwrap();
+    meta.as_object_mut().unwrap().remove("sensor").unwrap();
+    std::fs::write(&meta_path, meta.to_string()).unwrap();
+    let spec = format!("csv:{}", data.display());
+    let warnings = |name: &str, sensor: Option<&str>| -> Vec<datasets::LoadWarning> {
+        let out = dir.join(name);
+        let mut args = vec!["run", "--dataset", &spec, "--variants", "HD_ICP", "--quiet"];
+        args.extend(["--no-plots", "--out", out.to_str().unwrap()]);
+        if let Some(s) = sensor {
+            args.extend(["--sensor", s]);
+        }
+        let o = icp_eval(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let summary: RunReport =
+            serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
+                .unwrap();
+        summary.dataset.warnings
+    };
+    let assumed = |sensor, of: &str| datasets::LoadWarning::AssumedSensorModel {
+        sensor,
+        of: of.to_owned(),
+    };
+    let sweep = "the Scanse Sweep (the paper's scanner)";
+    assert_eq!(
+        warnings("none", None),
+        vec![assumed(icp_core::SensorModel::sweep(), sweep)]
+    );
+    let partly = icp_core::SensorModel {
+        sigma_alpha_rad: 0.1f64.to_radians(),
+        ..icp_core::SensorModel::sweep()
+    };
+    assert_eq!(
+        warnings("partial", Some("sigma_alpha_deg=0.1")),
+        vec![assumed(partly, &format!("{sweep}, with --sensor's values"))]
+    );
+    let whole = "sigma_r_const_m=0.02,sigma_r_per_m=0,sigma_alpha_deg=0.1";
+    assert_eq!(warnings("whole", Some(whole)), vec![]);
+}
+
 /// A summary written before the dataset's sensor model, reference kind, warnings, odometry and
 /// scanner offset were recorded still reads, with those fields empty.
 #[test]

@@ -435,6 +435,11 @@ pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Datas
     });
     let (dt_s, assumed) = nominal_dt_s(&scans);
     warnings.extend(assumed);
+    // A LaserScan carries no noise figures.
+    warnings.push(LoadWarning::AssumedSensorModel {
+        sensor: SensorModel::default(),
+        of: "the Scanse Sweep (the paper's scanner)".to_owned(),
+    });
     let label = path.file_name().map_or_else(
         || path.display().to_string(),
         |f| f.to_string_lossy().into_owned(),
