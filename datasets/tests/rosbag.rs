@@ -636,7 +636,9 @@ fn loading_a_paper_sized_bag_is_timed() {
 /// Bags written by `scripts/write-test-bag.py` with the Python `rosbags` package (an
 /// independent writer), in both storages: 50 scans of 360 beams every 0.1 s on a circle of
 /// radius 10 m around the scanner, beam k reading NaN when k % 10 == 0, and Odometry at the
-/// same stamps moving at 1 m/s along x while turning 0.1 rad/s.
+/// same stamps moving at 1 m/s along x while turning 0.1 rad/s, the pose of base_link; the
+/// laser 0.5 m ahead of it and turned 90° through the two links of /tf_static, so the
+/// reference (the laser's pose) is x = t' + 0.5 cos ψ, y = 0.5 sin ψ, yaw ψ + 90° (ψ = 0.1 t').
 #[test]
 #[ignore = "needs bags from scripts/write-test-bag.py (ICP_ROSBAG_DIR): run with --include-ignored"]
 fn bags_written_by_rosbags_are_read() {
@@ -666,12 +668,22 @@ fn bags_written_by_rosbags_are_read() {
             assert!(s.returns().iter().all(|r| (r.range_m - 10.0).abs() < 1e-6));
             let t = 0.1 * k as f64;
             assert!((s.timestamp_s().unwrap() - (1_700_000_000.0 + t)).abs() < 1e-6);
+            let psi = 0.1 * t;
             assert!(
-                (p.x_m - t).abs() < 1e-9 && p.y_m.abs() < 1e-12,
+                (p.x_m - (t + 0.5 * psi.cos())).abs() < 1e-9
+                    && (p.y_m - 0.5 * psi.sin()).abs() < 1e-9,
                 "{name} {k}: {p:?}"
             );
-            assert!((p.scan_yaw_rad.unwrap() - 0.1 * t).abs() < 1e-9);
+            assert!((p.scan_yaw_rad.unwrap() - (psi + std::f64::consts::FRAC_PI_2)).abs() < 1e-9);
         }
+        let o = ds.scanner_offset.expect("the offset from /tf_static");
+        assert!(
+            (o.x_m - 0.5).abs() < 1e-12
+                && o.y_m.abs() < 1e-12
+                && (o.yaw_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-12,
+            "{name}: {o:?}"
+        );
+        assert_eq!(offset_unknown_reason(&ds), None, "{name}");
         assert!((ds.dt_s - 0.1).abs() < 1e-6);
     }
 }
