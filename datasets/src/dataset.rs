@@ -175,6 +175,14 @@ pub enum LoadWarning {
         /// Which scanner it is the model of.
         of: String,
     },
+    /// A ROS bag whose static transforms do not give the scanner's offset from the body whose
+    /// pose the reference is (no `/tf_static`, no path between the frames, `?tf=off`): the
+    /// reference poses are taken as the scanner's own, so a lever arm `d` turning by `Δψ`
+    /// between scans errs the reference motion by up to `2·d·sin(Δψ/2)`.
+    ScannerOffsetUnknown {
+        /// Why, naming the frames.
+        reason: String,
+    },
 }
 
 /// Which pose channel of a dataset a figure was measured on.
@@ -251,6 +259,11 @@ impl fmt::Display for LoadWarning {
                 f,
                 "{before} scan(s) before and {after} after the reference's time span have no \
                  reference and were left out (reference=none keeps them)"
+            ),
+            Self::ScannerOffsetUnknown { reason } => write!(
+                f,
+                "the scanner's offset from the reference's body is unknown ({reason}): the \
+                 reference poses are taken as the scanner's own"
             ),
             Self::UnusableReferenceMessages { messages } => write!(
                 f,
@@ -330,10 +343,12 @@ pub struct Dataset {
     /// Odometry pose per scan, in the odometry's own frame (only differences between scans
     /// mean anything), when the source has an odometry channel.
     pub odometry: Option<Vec<Pose2>>,
-    /// The scanner's pose in the frame of the point whose positions the reference gives
-    /// (`t_point_scanner`), where known: the identity when the reference is the scanner's own
-    /// pose, `None` when the offset is unknown (the marina files name no lever arm between
-    /// the GNSS antenna and the scanner). Reported, not applied.
+    /// The scanner's pose in the frame of the point whose positions the source gives
+    /// (`t_point_scanner`), where known: the identity when the source's poses are the
+    /// scanner's own, `None` when the offset is unknown (the marina files name no lever arm
+    /// between the GNSS antenna and the scanner). Reported, not for consumers to apply: a
+    /// loader that knows it has already moved rigid reference poses to the scanner (a ROS
+    /// bag's body poses through `/tf_static`), and GNSS positions stay the antenna's.
     pub scanner_offset: Option<Pose2>,
     /// Sense in which the reference heading grows, seen from above.
     pub reference_heading_sense: BearingSense,

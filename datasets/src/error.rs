@@ -75,6 +75,15 @@ pub enum DatasetError {
         #[source]
         source: crate::rosbag::cdr::CdrError,
     },
+    /// A bag's static transforms that give no usable scanner offset: a transform that is not
+    /// rigid, or a scanner tilted out of the body's plane.
+    #[error("{path}: {topic}: {source}; ?tf=off takes the reference as the scanner's pose")]
+    BagTf {
+        path: PathBuf,
+        topic: String,
+        #[source]
+        source: Box<crate::rosbag::tf::TfError>,
+    },
     /// A `--dataset` string that does not name a loadable dataset.
     #[error(transparent)]
     Source(#[from] crate::source::SourceError),

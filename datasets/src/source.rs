@@ -152,6 +152,16 @@ pub static KINDS: &[Kind] = &[
                 help: "what the reference is: ground_truth, slam_corrected, odometry, unknown \
                        (default: odometry for Odometry, unknown for poses, gnss_positions for NavSatFix)",
             },
+            OptionDoc {
+                name: "body_frame",
+                help: "the frame whose pose the reference is (default: Odometry's child_frame_id, \
+                       NavSatFix's frame_id, base_link for poses)",
+            },
+            OptionDoc {
+                name: "tf",
+                help: "on: the scanner's offset from that frame from /tf_static, applied to \
+                       rigid poses (default); off: the reference taken as the scanner's pose",
+            },
             DT_S,
         ],
         open: open_rosbag,
@@ -528,6 +538,20 @@ fn open_rosbag(s: &DatasetSource) -> Result<Dataset, DatasetError> {
             ReferenceKind::GnssPositions,
             ReferenceKind::Unknown,
         ])?,
+        body_frame: s.raw("body_frame").map(str::to_owned),
+        tf: match s.raw("tf") {
+            None | Some("on") => true,
+            Some("off") => false,
+            Some(v) => {
+                return Err(SourceError::BadValue {
+                    kind: "rosbag",
+                    option: "tf",
+                    value: v.to_owned(),
+                    expected: "expected on or off".into(),
+                }
+                .into())
+            }
+        },
     };
     with_dt(rosbag::load(s.path(), &options)?, s.dt_s()?)
 }
@@ -558,7 +582,7 @@ mod tests {
         assert_eq!(
             err("rosbag:b?topic=/scan"),
             "dataset rosbag: unknown option \"topic\": expected one of scan, reference, \
-             reference_kind, dt_s"
+             reference_kind, body_frame, tf, dt_s"
         );
         assert_eq!(
             err("rosbag:b?scan=/a&scan=/b"),

@@ -115,7 +115,7 @@ fn rosbag_cdr(data: &[u8]) -> Result<(), String> {
         return Err("empty".into());
     };
     let e = |e: &dyn Display| e.to_string();
-    match selector % 4 {
+    match selector % 5 {
         0 => messages::laser_scan(rest).map(|_| ()).map_err(|x| e(&x)),
         1 => [ODOMETRY, POSE_STAMPED, POSE_WITH_COVARIANCE_STAMPED]
             .iter()
@@ -127,20 +127,33 @@ fn rosbag_cdr(data: &[u8]) -> Result<(), String> {
             .find(Result::is_ok)
             .unwrap_or_else(|| Err("no rigid-pose type decodes it".into())),
         2 => messages::nav_sat_fix(rest).map(|_| ()).map_err(|x| e(&x)),
-        _ => datasets::rosbag::load_mcap_bytes(
+        3 => datasets::rosbag::load_mcap_bytes(
             Path::new("fuzz.mcap"),
             rest,
             &datasets::rosbag::RosbagOptions::default(),
         )
         .map(|ds| assert_eq!(ds.scans.len(), 2))
         .map_err(|x| e(&x)),
+        _ => messages::tf_message(rest)
+            .map_err(|x| e(&x))
+            .and_then(|t| datasets::rosbag::tf::FrameTree::new(&t).map_err(|x| e(&x)))
+            .and_then(|tree| tree.planar("base_link", "laser").map_err(|x| e(&x)))
+            .map(|o| {
+                // The seed's two links: the laser 0.5 m ahead, turned 90°.
+                assert!((o.x_m - 0.5).abs() < 1e-12 && o.y_m.abs() < 1e-12);
+                assert!((o.yaw_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+            }),
     }
 }
 
 #[cfg(feature = "rosbag-mcap")]
 #[test]
 fn rosbag_cdr_inputs() {
-    let bad = ["laser_scan_huge_count", "mcap_truncated"];
+    let bad = [
+        "laser_scan_huge_count",
+        "mcap_truncated",
+        "tf_message_truncated",
+    ];
     for (path, data) in inputs("rosbag_cdr") {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         let r = rosbag_cdr(&data);

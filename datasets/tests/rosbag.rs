@@ -636,7 +636,9 @@ fn loading_a_paper_sized_bag_is_timed() {
 /// Bags written by `scripts/write-test-bag.py` with the Python `rosbags` package (an
 /// independent writer), in both storages: 50 scans of 360 beams every 0.1 s on a circle of
 /// radius 10 m around the scanner, beam k reading NaN when k % 10 == 0, and Odometry at the
-/// same stamps moving at 1 m/s along x while turning 0.1 rad/s.
+/// same stamps moving at 1 m/s along x while turning 0.1 rad/s, the pose of base_link; the
+/// laser 0.5 m ahead of it and turned 90° through the two links of /tf_static, so the
+/// reference (the laser's pose) is x = t' + 0.5 cos ψ, y = 0.5 sin ψ, yaw ψ + 90° (ψ = 0.1 t').
 #[test]
 #[ignore = "needs bags from scripts/write-test-bag.py (ICP_ROSBAG_DIR): run with --include-ignored"]
 fn bags_written_by_rosbags_are_read() {
@@ -666,12 +668,342 @@ fn bags_written_by_rosbags_are_read() {
             assert!(s.returns().iter().all(|r| (r.range_m - 10.0).abs() < 1e-6));
             let t = 0.1 * k as f64;
             assert!((s.timestamp_s().unwrap() - (1_700_000_000.0 + t)).abs() < 1e-6);
+            let psi = 0.1 * t;
             assert!(
-                (p.x_m - t).abs() < 1e-9 && p.y_m.abs() < 1e-12,
+                (p.x_m - (t + 0.5 * psi.cos())).abs() < 1e-9
+                    && (p.y_m - 0.5 * psi.sin()).abs() < 1e-9,
                 "{name} {k}: {p:?}"
             );
-            assert!((p.scan_yaw_rad.unwrap() - 0.1 * t).abs() < 1e-9);
+            assert!((p.scan_yaw_rad.unwrap() - (psi + std::f64::consts::FRAC_PI_2)).abs() < 1e-9);
         }
+        let o = ds.scanner_offset.expect("the offset from /tf_static");
+        assert!(
+            (o.x_m - 0.5).abs() < 1e-12
+                && o.y_m.abs() < 1e-12
+                && (o.yaw_rad - std::f64::consts::FRAC_PI_2).abs() < 1e-12,
+            "{name}: {o:?}"
+        );
+        assert_eq!(offset_unknown_reason(&ds), None, "{name}");
         assert!((ds.dt_s - 0.1).abs() < 1e-6);
+    }
+}
+
+const TF: &str = "tf2_msgs/msg/TFMessage";
+
+/// A body turning while it moves: x = 1.5 t', y = 0.2 t'², yaw = 0.35 t' − 1 (t' = t − 100 s):
+/// 2° between the 0.1 s scans.
+fn turning_body(t_s: f64) -> (f64, f64, f64) {
+    let t = t_s - 100.0;
+    (1.5 * t, 0.2 * t * t, 0.35 * t - 1.0)
+}
+
+/// The laser 0.5 m ahead of `base_link` and turned 90° (0.4 m up), through `mount`.
+const LASER_IN_BASE: (f64, f64, f64) = (0.5, 0.0, std::f64::consts::FRAC_PI_2);
+
+/// The static transforms of [`LASER_IN_BASE`] as two links, each its own TFMessage (two
+/// static broadcasters): `base_link → mount` at (0.3, 0, 0.2) turned 30°, `/mount → laser` at
+/// (0.2 cos 30°, −0.2 sin 30°, 0.2) turned 60°; and an unrelated `base_link → imu`.
+fn two_link_tf() -> [Vec<u8>; 2] {
+    let d30 = 30f64.to_radians();
+    [
+        tf_message(
+            99.0,
+            &[
+                ("base_link", "mount", [0.3, 0.0, 0.2], yaw_quaternion(d30)),
+                ("base_link", "imu", [-0.4, 0.1, 0.0], yaw_quaternion(0.0)),
+            ],
+        ),
+        tf_message(
+            99.0,
+            &[(
+                "/mount",
+                "laser",
+                [0.2 * d30.cos(), -0.2 * d30.sin(), 0.2],
+                yaw_quaternion(2.0 * d30),
+            )],
+        ),
+    ]
+}
+
+/// Scans (topic 0) and body poses of [`turning_body`] (topic 1, encoded by `encode`) at the
+/// scan stamps, then `extra` messages on topic 2, received first.
+fn body_bag(encode: fn(f64, f64, f64, f64) -> Vec<u8>, extra: &[Vec<u8>]) -> Vec<Msg> {
+    let mut messages: Vec<Msg> = extra.iter().map(|m| (2, t_ns(99.0), m.clone())).collect();
+    for t in scan_stamps() {
+        let (x, y, yaw) = turning_body(t);
+        messages.push((1, t_ns(t), encode(t, x, y, yaw)));
+        messages.push((0, t_ns(t), small_scan(t)));
+    }
+    messages
+}
+
+fn iso(x: f64, y: f64, yaw: f64) -> nalgebra::Isometry2<f64> {
+    nalgebra::Isometry2::new(nalgebra::Vector2::new(x, y), yaw)
+}
+
+fn reference_isometries(ds: &Dataset) -> Vec<nalgebra::Isometry2<f64>> {
+    ds.reference
+        .as_ref()
+        .unwrap()
+        .iter()
+        .map(|p| p.scan_pose().unwrap())
+        .collect()
+}
+
+fn offset_unknown_reason(ds: &Dataset) -> Option<&str> {
+    ds.warnings.iter().find_map(|w| match w {
+        LoadWarning::ScannerOffsetUnknown { reason } => Some(reason.as_str()),
+        _ => None,
+    })
+}
+
+/// The reference poses are the body's at the scan stamps, as today, when the offset is unknown.
+fn assert_body_poses(ds: &Dataset, what: &str) {
+    assert_eq!(ds.scanner_offset, None, "{what}");
+    for (scan, p) in ds.scans.iter().zip(reference_isometries(ds)) {
+        let (x, y, yaw) = turning_body(scan.timestamp_s().unwrap());
+        let d = iso(x, y, yaw).inverse() * p;
+        assert!(d.translation.vector.norm() < 1e-9 && d.rotation.angle().abs() < 1e-9);
+    }
+}
+
+/// The laser 0.5 m ahead of base_link and turned 90° through a two-link /tf_static chain: the
+/// loaded reference is the laser's true pose at every scan (body pose ∘ offset, in closed
+/// form), and, registration-free, the reference motion between consecutive scans is the
+/// laser's true motion `T⁻¹ · ΔT_body · T`, whose displacement differs from the body's by
+/// 1.7 cm per 2° turn. Both storages; Odometry (child_frame_id base_link) and PoseStamped (base_link by
+/// default, or `?body_frame=`).
+#[test]
+fn the_scanner_offset_from_tf_static_moves_the_reference_to_the_laser() {
+    let dir = scratch("tf_chain");
+    let (ox, oy, oyaw) = LASER_IN_BASE;
+    let t_body_laser = iso(ox, oy, oyaw);
+    type Encode = fn(f64, f64, f64, f64) -> Vec<u8>;
+    let types: [(&str, Encode); 2] = [
+        (ODOM, odometry),
+        ("geometry_msgs/msg/PoseStamped", pose_stamped),
+    ];
+    for (ty, encode) in types {
+        let messages = body_bag(encode, &two_link_tf());
+        for storage in STORAGES {
+            let topics = [("/scan", SCAN), ("/pose", ty), ("/tf_static", TF)];
+            let path = write(&dir, &ty.replace('/', "_"), storage, &topics, &messages);
+            let what = format!("{ty} {storage:?}");
+            let ds = open(&path, "").unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_eq!(offset_unknown_reason(&ds), None, "{what}");
+            let o = ds.scanner_offset.expect("a known offset");
+            assert!(
+                (o.x_m - ox).abs() < 1e-12 && (o.y_m - oy).abs() < 1e-12,
+                "{what}: {o:?}"
+            );
+            assert!((o.yaw_rad - oyaw).abs() < 1e-12, "{what}: {o:?}");
+            let poses = reference_isometries(&ds);
+            assert_eq!(poses.len(), 40);
+            for (k, (scan, p)) in ds.scans.iter().zip(&poses).enumerate() {
+                let (x, y, yaw) = turning_body(scan.timestamp_s().unwrap());
+                let (truth_x, truth_y) = (x + ox * yaw.cos(), y + ox * yaw.sin());
+                let q = ds.reference.as_ref().unwrap()[k];
+                assert!(
+                    (q.x_m - truth_x).abs() < 1e-9 && (q.y_m - truth_y).abs() < 1e-9,
+                    "{what} scan {k}: {q:?}"
+                );
+                let truth_yaw = yaw + oyaw;
+                assert!(
+                    (iso(0.0, 0.0, truth_yaw).inverse() * p)
+                        .rotation
+                        .angle()
+                        .abs()
+                        < 1e-9
+                );
+                if k + 1 < poses.len() {
+                    let (x1, y1, yaw1) = turning_body(ds.scans[k + 1].timestamp_s().unwrap());
+                    let body_motion = iso(x, y, yaw).inverse() * iso(x1, y1, yaw1);
+                    let laser_motion = t_body_laser.inverse() * body_motion * t_body_laser;
+                    let measured = p.inverse() * poses[k + 1];
+                    let d = laser_motion.inverse() * measured;
+                    assert!(d.translation.vector.norm() < 1e-9, "{what} pair {k}");
+                    assert!(d.rotation.angle().abs() < 1e-9, "{what} pair {k}");
+                    // The check has teeth: the laser's displacement differs from the body's
+                    // by the lever arm turned through Δψ = 2.0°, 2 · 0.5 m · sin(Δψ/2) = 1.7 cm.
+                    let laser_step = poses[k + 1].translation.vector - p.translation.vector;
+                    let body_step = nalgebra::Vector2::new(x1 - x, y1 - y);
+                    let lever_m = 2.0 * ox * ((yaw1 - yaw) / 2.0).sin();
+                    assert!(((laser_step - body_step).norm() - lever_m).abs() < 1e-9);
+                    assert!(lever_m > 0.017, "{lever_m}");
+                }
+            }
+        }
+    }
+    // ?body_frame= names another frame of the tree: the offset from it.
+    let messages = body_bag(pose_stamped, &two_link_tf());
+    let topics = [
+        ("/scan", SCAN),
+        ("/pose", "geometry_msgs/msg/PoseStamped"),
+        ("/tf_static", TF),
+    ];
+    let path = write(&dir, "body_frame", STORAGES[0], &topics, &messages);
+    let ds = open(&path, "?body_frame=imu").unwrap();
+    let o = ds.scanner_offset.unwrap();
+    assert!(
+        (o.x_m - 0.9).abs() < 1e-12 && (o.y_m + 0.1).abs() < 1e-12,
+        "{o:?}"
+    );
+    // The poses are then taken as imu's, moved by (0.9, −0.1) turned 90°: both components of
+    // the lever arm turn with the body.
+    for (scan, p) in ds.scans.iter().zip(reference_isometries(&ds)) {
+        let (x, y, yaw) = turning_body(scan.timestamp_s().unwrap());
+        let truth = iso(x, y, yaw) * iso(0.9, -0.1, oyaw);
+        let d = truth.inverse() * p;
+        assert!(d.translation.vector.norm() < 1e-9 && d.rotation.angle().abs() < 1e-9);
+    }
+}
+
+/// Without /tf_static (or with only a dynamic /tf), with ?tf=off, with a tree that joins no
+/// path from the body to the laser, or with a pose reference and no base_link: the poses are
+/// the body's, as before, and the warning says why, naming the frames.
+#[test]
+fn without_a_tf_path_the_offset_is_unknown_and_said() {
+    let dir = scratch("tf_missing");
+    let no_path = tf_message(
+        99.0,
+        &[
+            ("base_link", "imu", [0.1, 0.0, 0.0], yaw_quaternion(0.0)),
+            ("map", "laser", [0.0; 3], yaw_quaternion(0.0)),
+        ],
+    );
+    /// Bag stem, tf topic name, tf messages, query, the reason's expected text.
+    type Case<'a> = (&'a str, &'a str, Vec<Vec<u8>>, &'a str, &'a str);
+    let cases: [Case<'_>; 5] = [
+        ("none", "/other", vec![], "", "the bag has no /tf_static"),
+        (
+            "dynamic",
+            "/tf",
+            two_link_tf().to_vec(),
+            "",
+            "no /tf_static (dynamic tf is not read",
+        ),
+        (
+            "off",
+            "/tf_static",
+            two_link_tf().to_vec(),
+            "?tf=off",
+            "?tf=off",
+        ),
+        (
+            "no_path",
+            "/tf_static",
+            vec![no_path.clone()],
+            "",
+            "no path from frame \"base_link\" to frame \"laser\" in /tf_static \
+             (its frames: base_link, imu, laser, map)",
+        ),
+        (
+            "no_path_named",
+            "/tf_static",
+            vec![no_path],
+            "?body_frame=imu",
+            "no path from frame \"imu\" to frame \"laser\"",
+        ),
+    ];
+    for (stem, tf_topic, extra, query, reason) in cases {
+        let messages = body_bag(odometry, &extra);
+        for storage in STORAGES {
+            let topics = [("/scan", SCAN), ("/odom", ODOM), (tf_topic, TF)];
+            let path = write(&dir, stem, storage, &topics, &messages);
+            let what = format!("{stem} {storage:?}");
+            let ds = open(&path, query).unwrap_or_else(|e| panic!("{what}: {e}"));
+            let said = offset_unknown_reason(&ds).unwrap_or_else(|| panic!("{what}"));
+            assert!(said.contains(reason), "{what}: {said}");
+            assert_body_poses(&ds, &what);
+        }
+    }
+    // A PoseStamped names only its parent frame: base_link is assumed only if tf has it.
+    let messages = body_bag(
+        pose_stamped,
+        &[tf_message(
+            99.0,
+            &[("car", "laser", [1.0; 3], yaw_quaternion(0.0))],
+        )],
+    );
+    let topics = [
+        ("/scan", SCAN),
+        ("/pose", "geometry_msgs/msg/PoseStamped"),
+        ("/tf_static", TF),
+    ];
+    let path = write(&dir, "no_base_link", STORAGES[1], &topics, &messages);
+    let ds = open(&path, "").unwrap();
+    let said = offset_unknown_reason(&ds).unwrap();
+    assert!(
+        said.contains("names no body frame and /tf_static has no base_link; give ?body_frame="),
+        "{said}"
+    );
+    assert_body_poses(&ds, "no base_link");
+    let ds = open(&path, "?body_frame=car").unwrap();
+    assert_eq!(ds.scanner_offset.map(|o| o.x_m), Some(1.0));
+    let e = open(&path, "?tf=maybe").unwrap_err().to_string();
+    assert!(
+        e.contains("option tf = \"maybe\": expected on or off"),
+        "{e}"
+    );
+}
+
+/// A TFMessage cut short is an error naming the topic, the message and the field; a laser
+/// pitched 2° from the body's plane is refused, naming the frames and the tilt.
+#[test]
+fn truncated_tf_messages_and_tilted_lasers_are_typed_errors() {
+    let dir = scratch("tf_errors");
+    let [first, mut second] = two_link_tf();
+    second.truncate(second.len() - 12);
+    let tilted = tf_message(
+        99.0,
+        &[(
+            "base_link",
+            "laser",
+            [0.5, 0.0, 0.4],
+            [
+                0.0,
+                (1f64.to_radians()).sin(),
+                0.0,
+                (1f64.to_radians()).cos(),
+            ],
+        )],
+    );
+    for storage in STORAGES {
+        let topics = [("/scan", SCAN), ("/odom", ODOM), ("/tf_static", TF)];
+        let path = write(
+            &dir,
+            "short",
+            storage,
+            &topics,
+            &body_bag(odometry, &[first.clone(), second.clone()]),
+        );
+        let e = open(&path, "").unwrap_err();
+        assert!(
+            matches!(e, DatasetError::BagMessage { index: 1, .. }),
+            "{e}"
+        );
+        assert!(
+            e.to_string().contains(
+                "message 1 of topic /tf_static: field transforms.transform.rotation.z: needs 8 bytes"
+            ),
+            "{e}"
+        );
+        // ?tf=off does not read it.
+        assert!(open(&path, "?tf=off").is_ok());
+        let path = write(
+            &dir,
+            "tilted",
+            storage,
+            &topics,
+            &body_bag(odometry, std::slice::from_ref(&tilted)),
+        );
+        let e = open(&path, "").unwrap_err();
+        assert!(matches!(e, DatasetError::BagTf { .. }), "{e}");
+        assert!(
+            e.to_string().contains(
+                "/tf_static: frame \"laser\" is tilted 2.00° from the plane of \"base_link\""
+            ),
+            "{e}"
+        );
     }
 }

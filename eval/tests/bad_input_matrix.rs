@@ -361,7 +361,7 @@ fn rosbag_unknown_option() {
         (
             Some(2),
             "error: dataset rosbag: unknown option \"topic\": expected one of scan, reference, \
-             reference_kind, dt_s"
+             reference_kind, body_frame, tf, dt_s"
                 .to_owned()
         )
     );

@@ -3,7 +3,7 @@
 //! Field orders are those of the message definitions in `common_interfaces`
 //! (`std_msgs/msg/Header`, `sensor_msgs/msg/LaserScan`, `sensor_msgs/msg/NavSatFix`,
 //! `geometry_msgs/msg/{Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped}`,
-//! `nav_msgs/msg/Odometry`).
+//! `nav_msgs/msg/Odometry`, `tf2_msgs/msg/TFMessage`, `geometry_msgs/msg/TransformStamped`).
 
 use super::cdr::{CdrError, CdrReader};
 
@@ -18,6 +18,9 @@ pub const POSE_WITH_COVARIANCE_STAMPED: &str = "geometry_msgs/msg/PoseWithCovari
 /// `sensor_msgs/msg/NavSatFix`.
 pub const NAV_SAT_FIX: &str = "sensor_msgs/msg/NavSatFix";
 
+/// `tf2_msgs/msg/TFMessage`, the type of `/tf_static` (and `/tf`).
+pub const TF_MESSAGE: &str = "tf2_msgs/msg/TFMessage";
+
 /// The message types a reference can come from.
 pub const REFERENCE_TYPES: [&str; 4] = [
     ODOMETRY,
@@ -26,12 +29,76 @@ pub const REFERENCE_TYPES: [&str; 4] = [
     NAV_SAT_FIX,
 ];
 
-/// `std_msgs/msg/Header`'s stamp, seconds (`sec + nanosec · 1e-9`).
-fn header_stamp_s(r: &mut CdrReader<'_>) -> Result<f64, CdrError> {
+/// `std_msgs/msg/Header`: its stamp, seconds (`sec + nanosec · 1e-9`), and its `frame_id`.
+fn header<'a>(r: &mut CdrReader<'a>) -> Result<(f64, &'a str), CdrError> {
     let sec = r.i32("header.stamp.sec")?;
     let nanosec = r.u32("header.stamp.nanosec")?;
-    r.string("header.frame_id")?;
-    Ok(f64::from(sec) + f64::from(nanosec) * 1e-9)
+    let frame_id = r.string("header.frame_id")?;
+    Ok((f64::from(sec) + f64::from(nanosec) * 1e-9, frame_id))
+}
+
+/// `std_msgs/msg/Header`'s stamp, seconds.
+fn header_stamp_s(r: &mut CdrReader<'_>) -> Result<f64, CdrError> {
+    Ok(header(r)?.0)
+}
+
+/// The `header.frame_id` of any message that starts with a `std_msgs/msg/Header` (the
+/// LaserScan's scanner frame, the NavSatFix's antenna frame, a pose's parent frame).
+pub fn header_frame_id(message: &[u8]) -> Result<String, CdrError> {
+    let mut r = CdrReader::new(message)?;
+    Ok(header(&mut r)?.1.to_owned())
+}
+
+/// The `child_frame_id` of a `nav_msgs/msg/Odometry`: the body whose pose it gives.
+pub fn odometry_child_frame_id(message: &[u8]) -> Result<String, CdrError> {
+    let mut r = CdrReader::new(message)?;
+    header(&mut r)?;
+    Ok(r.string("child_frame_id")?.to_owned())
+}
+
+/// One `geometry_msgs/msg/TransformStamped`: the pose of `child` in `parent`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Transform {
+    /// `header.frame_id`: the parent frame.
+    pub parent: String,
+    /// `child_frame_id`.
+    pub child: String,
+    /// `transform.translation` (x, y, z), metres.
+    pub translation_m: [f64; 3],
+    /// `transform.rotation`, the quaternion (x, y, z, w).
+    pub rotation_xyzw: [f64; 4],
+}
+
+/// Decodes a `tf2_msgs/msg/TFMessage` (a sequence of `TransformStamped`).
+pub fn tf_message(message: &[u8]) -> Result<Vec<Transform>, CdrError> {
+    let mut r = CdrReader::new(message)?;
+    let n = r.u32("transforms")? as usize;
+    // Each transform takes at least 4 + 4 + 4 + 4 + 7 · 8 bytes: a corrupt count is caught
+    // before reserving.
+    let mut out = Vec::with_capacity(n.min(message.len() / 72));
+    for _ in 0..n {
+        let (_, parent) = header(&mut r)?;
+        let child = r.string("transforms.child_frame_id")?;
+        let translation_m = [
+            r.f64("transforms.transform.translation.x")?,
+            r.f64("transforms.transform.translation.y")?,
+            r.f64("transforms.transform.translation.z")?,
+        ];
+        let rotation_xyzw = [
+            r.f64("transforms.transform.rotation.x")?,
+            r.f64("transforms.transform.rotation.y")?,
+            r.f64("transforms.transform.rotation.z")?,
+            r.f64("transforms.transform.rotation.w")?,
+        ];
+        out.push(Transform {
+            parent: parent.to_owned(),
+            child: child.to_owned(),
+            translation_m,
+            rotation_xyzw,
+        });
+    }
+    r.finish()?;
+    Ok(out)
 }
 
 /// A decoded `LaserScan`: the fields a scan needs.

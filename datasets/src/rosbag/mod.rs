@@ -7,12 +7,16 @@
 //!   [`LoadWarning::NoReturnReadings`]. Scans are put in stamp order.
 //! - **Reference**, interpolated to the scan stamps (linear in position, shortest-arc in yaw):
 //!   `nav_msgs/msg/Odometry`, `geometry_msgs/msg/PoseStamped` or
-//!   `geometry_msgs/msg/PoseWithCovarianceStamped`, rigid poses (yaw from the quaternion)
-//!   taken as the scanner's pose: no `tf` is read, so the scanner offset is reported as
-//!   unknown; or `sensor_msgs/msg/NavSatFix`, GNSS positions in the local tangent plane (east,
-//!   north) about the first fix with the course over ground as heading: SOG and ΔCOG only, as
-//!   the paper's reference ([`ReferenceKind::GnssPositions`], no scan yaw). Scans outside the
-//!   reference's time span are left out ([`LoadWarning::ScansOutsideReference`]).
+//!   `geometry_msgs/msg/PoseWithCovarianceStamped`, rigid poses of a body (yaw from the
+//!   quaternion) moved to the scanner: `pose_body ∘ T_body_scanner`, the scanner's offset
+//!   read from `/tf_static` ([`offset`], [`tf`]) and reported as the dataset's
+//!   `scanner_offset`; without a tf path the poses are taken as the scanner's own and
+//!   [`LoadWarning::ScannerOffsetUnknown`] says why. Or `sensor_msgs/msg/NavSatFix`, GNSS
+//!   positions in the local tangent plane (east, north) about the first fix with the course
+//!   over ground as heading: SOG and ΔCOG only, as the paper's reference
+//!   ([`ReferenceKind::GnssPositions`], no scan yaw); the antenna's offset from tf is reported,
+//!   not applied (no body heading to turn it with). Scans outside the reference's time span
+//!   are left out ([`LoadWarning::ScansOutsideReference`]).
 //! - **Topics**: the `LaserScan` topic and the reference topic are found by type when there is
 //!   one of each; [`RosbagOptions`] names them otherwise.
 //!
@@ -20,7 +24,9 @@
 
 pub mod cdr;
 pub mod messages;
+pub mod offset;
 pub mod storage;
+pub mod tf;
 pub mod track;
 
 use std::path::Path;
@@ -48,7 +54,7 @@ pub enum ReferenceChoice {
 }
 
 /// Options of the bag loader.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RosbagOptions {
     /// The `LaserScan` topic; `None`: the only one.
     pub scan_topic: Option<String>,
@@ -58,6 +64,23 @@ pub struct RosbagOptions {
     /// `PoseStamped`, `PoseWithCovarianceStamped`: [`ReferenceKind::Unknown`]; `NavSatFix`:
     /// [`ReferenceKind::GnssPositions`], the only kind allowed for it).
     pub reference_kind: Option<ReferenceKind>,
+    /// The frame whose pose the reference gives; `None`: `Odometry.child_frame_id`, a
+    /// `NavSatFix`'s `header.frame_id`, [`offset::DEFAULT_BODY_FRAME`] for poses.
+    pub body_frame: Option<String>,
+    /// Whether `/tf_static` is read for the scanner's offset from that frame (default on).
+    pub tf: bool,
+}
+
+impl Default for RosbagOptions {
+    fn default() -> Self {
+        Self {
+            scan_topic: None,
+            reference: ReferenceChoice::Auto,
+            reference_kind: None,
+            body_frame: None,
+            tf: true,
+        }
+    }
 }
 
 fn topic_error(path: &Path, what: String) -> DatasetError {
@@ -418,17 +441,41 @@ pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Datas
         });
     }
 
+    let scanner_offset = match reference_topic {
+        None => None,
+        Some(t) => match offset::scanner_offset(path, bag, options, scan_topic, t)? {
+            Ok(o) => Some(o),
+            Err(reason) => {
+                warnings.push(LoadWarning::ScannerOffsetUnknown { reason });
+                None
+            }
+        },
+    };
     let reference = reference_poses.map(|(poses, gnss)| {
         laser
             .iter()
             .map(|s| {
                 let p = track::interpolate(&poses, s.stamp_s)
                     .expect("scans outside the reference's span were left out");
+                // A rigid pose of the body moved to the scanner: pose_body ∘ T_body_scanner.
+                // GNSS positions have no body orientation to turn the lever arm with.
+                let (x_m, y_m, scan_yaw_rad) = match (gnss, scanner_offset) {
+                    (true, _) => (p.x_m, p.y_m, None),
+                    (false, None) => (p.x_m, p.y_m, Some(p.yaw_rad)),
+                    (false, Some(o)) => {
+                        let (sin, cos) = p.yaw_rad.sin_cos();
+                        (
+                            p.x_m + cos * o.x_m - sin * o.y_m,
+                            p.y_m + sin * o.x_m + cos * o.y_m,
+                            Some(track::wrap_pi(p.yaw_rad + o.yaw_rad)),
+                        )
+                    }
+                };
                 ReferencePose {
-                    x_m: p.x_m,
-                    y_m: p.y_m,
+                    x_m,
+                    y_m,
                     heading_rad: p.yaw_rad,
-                    scan_yaw_rad: (!gnss).then_some(p.yaw_rad),
+                    scan_yaw_rad,
                 }
             })
             .collect::<Vec<_>>()
@@ -459,9 +506,9 @@ pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Datas
         reference,
         reference_kind: kind,
         odometry: None,
-        // The reference is taken as the scanner's own pose, but no tf says so: unknown. GNSS
-        // positions are the antenna's, whose offset is unknown too.
-        scanner_offset: None,
+        // Rigid reference poses were moved to the scanner by it; GNSS positions stay the
+        // antenna's, the offset reported only.
+        scanner_offset,
         reference_heading_sense: BearingSense::CounterClockwise,
         dt_s,
         sensor: SensorModel::default(),

@@ -17,11 +17,19 @@ pub struct Topic {
     pub encoding: String,
 }
 
-/// Whether a topic's messages are kept: those of the types the loader reads (scans and
-/// references); the rest of a bag (images, point clouds, tf) is skipped while reading.
+/// Whether a topic holds the static transforms: a `TFMessage` topic named `tf_static` (in any
+/// namespace, `/tf_static`, `/robot/tf_static`).
+pub fn is_tf_static(topic: &Topic) -> bool {
+    topic.ty == super::messages::TF_MESSAGE && topic.name.rsplit('/').next() == Some("tf_static")
+}
+
+/// Whether a topic's messages are kept: those of the types the loader reads (scans,
+/// references and static transforms); the rest of a bag (images, point clouds, dynamic tf) is
+/// skipped while reading.
 fn wanted(topic: &Topic) -> bool {
     topic.ty == super::messages::LASER_SCAN
         || super::messages::REFERENCE_TYPES.contains(&topic.ty.as_str())
+        || is_tf_static(topic)
 }
 
 /// One message: its topic (an index into [`Bag::topics`]) and its serialized bytes.

@@ -7,7 +7,7 @@ use std::f64::consts::PI;
 use super::messages::{Fix, StampedPose};
 
 /// The angle wrapped into `(−π, π]`, radians.
-fn wrap_pi(angle_rad: f64) -> f64 {
+pub fn wrap_pi(angle_rad: f64) -> f64 {
     let a = angle_rad.rem_euclid(2.0 * PI);
     if a > PI {
         a - 2.0 * PI

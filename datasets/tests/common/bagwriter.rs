@@ -155,6 +155,28 @@ pub fn nav_sat_fix(t_s: f64, status: i8, lat_deg: f64, lon_deg: f64, alt_m: f64)
     c.u8(0).bytes()
 }
 
+/// One `geometry_msgs/TransformStamped`: parent frame, child frame, translation (m) and
+/// quaternion (x, y, z, w).
+pub type TfDef<'a> = (&'a str, &'a str, [f64; 3], [f64; 4]);
+
+/// The quaternion (x, y, z, w) of a turn by `yaw` about `+z`.
+pub fn yaw_quaternion(yaw: f64) -> [f64; 4] {
+    [0.0, 0.0, (yaw / 2.0).sin(), (yaw / 2.0).cos()]
+}
+
+/// A `tf2_msgs/TFMessage` of `transforms`, stamped `t_s`.
+pub fn tf_message(t_s: f64, transforms: &[TfDef<'_>]) -> Vec<u8> {
+    let mut c = Cdr::default();
+    c.u32(transforms.len() as u32);
+    for (parent, child, xyz, q) in transforms {
+        c.header(t_s, parent).string(child);
+        for v in xyz.iter().chain(q) {
+            c.f64(*v);
+        }
+    }
+    c.bytes()
+}
+
 /// A topic: name and type.
 pub type TopicDef<'a> = (&'a str, &'a str);
 
