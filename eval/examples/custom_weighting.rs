@@ -8,8 +8,13 @@
 //! same surface seen from two close poses have similar ranges, spurious ones do not.
 
 use datasets::synthetic::{generate, Scenario};
-use eval::compare::{compare, compare_md, CompareOptions};
-use eval::{evaluate, EvalSetup, OffsetChoice, ReferenceChecks};
+use eval::measure::compare::compare;
+use eval::measure::compare::CompareOptions;
+use eval::pipeline::evaluate;
+use eval::render::markdown::compare::compare_md;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
+use eval::run::setup::ReferenceChecks;
 use icp_core::variants::builtin;
 use icp_core::weighting::{PairView, PairWeighting};
 use indicatif::ProgressBar;

@@ -13,7 +13,9 @@ use datasets::csvdir::{self, DatasetMeta};
 use datasets::marina::{self, MarinaOptions};
 use datasets::matv5::write_doubles;
 use datasets::synthetic::{generate, Scenario};
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::pipeline::evaluate;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
 use icp_core::variants::{builtin, hd_icp};
 use icp_core::{Registrar, Scan, SensorModel};
 use indicatif::ProgressBar;
@@ -768,7 +770,7 @@ fn init_reference_without_a_rigid_reference() {
 // ---- The harness --------------------------------------------------------------------------
 
 /// A run over a synthetic dataset with scan 2 replaced by `scan`.
-fn run_with_scan_2(scan: Scan) -> eval::RunReport {
+fn run_with_scan_2(scan: Scan) -> eval::measure::report::RunReport {
     let mut ds = generate(&Scenario {
         n_scans: 5,
         ..Scenario::paper()
@@ -845,7 +847,7 @@ fn harness_flags_and_counts_a_pair_with_no_overlap() {
         "flagged pairs are failures of the variant"
     );
     assert_eq!(v.all_pairs.pairs, 4, "flagged pairs stay in the statistics");
-    let table = eval::output::table_md(&report);
+    let table = eval::render::markdown::table_md(&report);
     assert!(
         table.contains("| HD_ICP | 2 | 0 | 2 | 0 | 0 | 50.0 % |"),
         "{table}"

@@ -2,8 +2,11 @@
 //! variant and thread count; a dataset without a rigid reference and bad options are refused.
 
 use datasets::synthetic::{generate, Scenario};
-use eval::basin::{run, BasinOptions};
-use eval::{EvalError, EvalSetup, OffsetChoice};
+use eval::error::EvalError;
+use eval::measure::basin::BasinOptions;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
+use eval::studies::basin::run;
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 

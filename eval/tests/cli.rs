@@ -4,7 +4,8 @@ mod common;
 
 use std::path::Path;
 
-use eval::report::{PairRecord, RunReport};
+use eval::measure::record::PairRecord;
+use eval::measure::report::RunReport;
 
 fn icp_eval(args: &[&str]) -> std::process::Output {
     common::icp_eval_command()
@@ -51,7 +52,10 @@ fn every_output_exists_parses_and_agrees_with_the_csv() {
     run_small(&dir, "2", true);
     let summary: RunReport =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
-    assert_eq!(summary.schema_version, eval::report::SCHEMA_VERSION);
+    assert_eq!(
+        summary.schema_version,
+        eval::measure::report::SCHEMA_VERSION
+    );
     assert_eq!(summary.dataset.pairs, 23);
     let rows = read_pairs(&dir);
     assert_eq!(rows.len(), 4 * 23);

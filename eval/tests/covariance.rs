@@ -3,9 +3,12 @@
 //! cells and a flag, and no table holds a NaN.
 
 use datasets::synthetic::{generate, Scenario};
-use eval::consistency::{fill, CovarianceMode};
-use eval::report::PairRecord;
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::measure::consistency::fill;
+use eval::measure::record::PairRecord;
+use eval::pipeline::evaluate;
+use eval::run::covariance::CovarianceMode;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
 use icp_core::variants::builtin;
 use icp_core::{Covariance, Registration, StopReason};
 use indicatif::ProgressBar;
@@ -74,13 +77,13 @@ fn sampled_is_the_same_whatever_the_thread_count_and_the_closed_form_skips_point
         .all(|r| r.cov_status.is_empty() && covariance_cells(r).iter().all(Option::is_none)));
     assert!(off.variants.iter().all(|v| v.consistency.is_none()));
     for report in [&one, &closed] {
-        let csv = String::from_utf8(eval::output::pairs_csv(report).unwrap()).unwrap();
+        let csv = String::from_utf8(eval::render::csv::pairs_csv(report).unwrap()).unwrap();
         assert!(!csv.to_lowercase().contains("nan"), "{csv}");
         assert!(csv.lines().next().unwrap().contains(
             "cov_xx_m2,cov_xy_m2,cov_xt_m_rad,cov_yy_m2,cov_yt_m_rad,cov_tt_rad2,sog_sigma_mps,\
              dcog_sigma_deg,rot_sigma_dps,nees"
         ));
-        let md = eval::output::table_md(report);
+        let md = eval::render::markdown::table_md(report);
         assert!(md.contains("## Covariance consistency") && !md.contains("NaN"));
     }
 }
@@ -125,7 +128,8 @@ fn an_unbounded_covariance_gives_empty_cells_and_a_flag() {
 /// distribution whose quantiles the consistency figures use.
 #[test]
 fn the_nees_figure_is_drawn_against_chi2_3() {
-    use eval::consistency::{chi2_cdf, chi2_quantile};
+    use eval::measure::consistency::chi2_cdf;
+    use eval::measure::consistency::chi2_quantile;
     for p in [0.025, 0.5, 0.975] {
         assert!(
             (chi2_cdf(3.0, chi2_quantile(3.0, p)) - p).abs() < 1e-9,
@@ -148,8 +152,8 @@ fn the_nees_figure_is_drawn_against_chi2_3() {
     assert!(report.pairs.iter().any(|r| r.nees.is_some()));
     let dir = std::env::temp_dir().join(format!("icp-nees-figure-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    let mut out = eval::OutputDir::open(&dir, false).unwrap();
-    eval::write_outputs(&mut out, &ds, &report, true).unwrap();
+    let mut out = eval::render::outdir::OutputDir::open(&dir, false).unwrap();
+    eval::render::write_outputs(&mut out, &ds, &report, true).unwrap();
     assert!(dir.join("nees.png").is_file() && dir.join("nees.svg").is_file());
     let off = evaluate(&ds, &setup(CovarianceMode::Off), &ProgressBar::hidden()).unwrap();
     assert!(off.pairs.iter().all(|r| r.nees.is_none()));

@@ -5,8 +5,15 @@ mod common;
 
 use datasets::synthetic::{generate, Scenario};
 use datasets::{Dataset, ScanPair};
-use eval::estimates::{load, parse_spec, EstimatesError, EstimatesSpec};
-use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, OutputDir};
+use eval::pipeline::evaluate;
+use eval::render::outdir::OutputDir;
+use eval::render::write_outputs;
+use eval::run::estimates::load;
+use eval::run::estimates::parse_spec;
+use eval::run::estimates::EstimatesError;
+use eval::run::estimates::EstimatesSpec;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 use nalgebra::Isometry2;
@@ -21,12 +28,12 @@ fn dataset() -> Dataset {
 
 fn times(ds: &Dataset) -> Vec<f64> {
     (0..ds.scans.len())
-        .map(|k| eval::report::scan_time_s(ds, k))
+        .map(|k| eval::data::scan_time_s(ds, k))
         .collect()
 }
 
 fn truth(ds: &Dataset, p: ScanPair) -> Isometry2<f64> {
-    eval::reference::motion(ds, p.source, p.reference, ds.pair_dt_s(p))
+    eval::data::motion(ds, p.source, p.reference, ds.pair_dt_s(p))
         .unwrap()
         .t_ref_src
         .unwrap()
@@ -266,7 +273,7 @@ fn bad_files_are_refused_with_the_file_line_and_field() {
 }
 
 /// A per-pair CSV of `rows`' motions (pairs.csv columns), leaving out the pairs `skip`.
-fn motions_csv(rows: &[&eval::report::PairRecord], skip: &[usize]) -> String {
+fn motions_csv(rows: &[&eval::measure::record::PairRecord], skip: &[usize]) -> String {
     let mut csv = String::from("source,reference,tx_m,ty_m,theta_deg\n");
     for r in rows.iter().filter(|r| !skip.contains(&r.pair)) {
         csv += &format!(
@@ -300,12 +307,12 @@ fn an_external_copy_of_a_variant_gets_its_errors_and_a_missing_pair_is_its_failu
     let setup = || {
         EvalSetup::from_specs(&[builtin("HD_PL_ICP").unwrap()], OffsetChoice::Fixed(0))
             .unwrap()
-            .with_covariance(eval::consistency::CovarianceMode::ClosedForm)
-            .with_global(Default::default(), eval::GlobalChecks::On)
-            .with_reference_checks(eval::ReferenceChecks::Off)
+            .with_covariance(eval::run::covariance::CovarianceMode::ClosedForm)
+            .with_global(Default::default(), eval::run::setup::GlobalChecks::On)
+            .with_reference_checks(eval::run::setup::ReferenceChecks::Off)
     };
     let alone = evaluate(&ds, &setup(), &ProgressBar::hidden()).unwrap();
-    let rows: Vec<&eval::report::PairRecord> = alone.pairs.iter().collect();
+    let rows: Vec<&eval::measure::record::PairRecord> = alone.pairs.iter().collect();
     let dir = common::scratch_dir("estimates_copy");
     let path = dir.join("copy.csv");
     std::fs::write(&path, motions_csv(&rows, &[3])).unwrap();
@@ -331,7 +338,7 @@ fn an_external_copy_of_a_variant_gets_its_errors_and_a_missing_pair_is_its_failu
     let ext: Vec<_> = r.pairs.iter().filter(|p| p.variant == "COPY").collect();
     for (a, b) in rows.iter().zip(&ext) {
         if a.pair == 3 {
-            assert!(b.tx_m.is_none() && b.status == eval::status::StatusKind::Failed);
+            assert!(b.tx_m.is_none() && b.status == eval::run::status::StatusKind::Failed);
             continue;
         }
         let close = |x: Option<f64>, y: Option<f64>| (x.unwrap() - y.unwrap()).abs() < 1e-9;
@@ -340,7 +347,12 @@ fn an_external_copy_of_a_variant_gets_its_errors_and_a_missing_pair_is_its_failu
         assert!(close(a.sog_err_mps, b.sog_err_mps), "pair {}", a.pair);
         assert!(close(a.dcog_err_deg, b.dcog_err_deg), "pair {}", a.pair);
         // Good poses on the harbour: assessed and checked, nothing flagged.
-        assert_eq!(b.status, eval::status::StatusKind::Ok, "pair {}", a.pair);
+        assert_eq!(
+            b.status,
+            eval::run::status::StatusKind::Ok,
+            "pair {}",
+            a.pair
+        );
         assert!(b.global_result_score.is_some() && b.overlap.unwrap() > 0.5);
         assert!(b.init.is_none() && b.iterations.is_none() && b.converged.is_none());
         assert!(b.time_us.is_none() && b.cov_status.is_empty() && b.nees.is_none());
@@ -355,7 +367,10 @@ fn an_external_copy_of_a_variant_gets_its_errors_and_a_missing_pair_is_its_failu
         ("COPY", n - 1)
     );
     assert_eq!(source.sha256, spec("COPY", &path).sha256);
-    assert_eq!(source.format, eval::estimates::EstimatesFormat::PairCsv);
+    assert_eq!(
+        source.format,
+        eval::run::estimates::EstimatesFormat::PairCsv
+    );
     // HD_PL_ICP's own rows are those of the run without the external.
     let mine: Vec<_> = r
         .pairs
@@ -390,7 +405,7 @@ fn external_estimates_are_flagged_like_registrations() {
     std::fs::write(&path, csv).unwrap();
     let setup = EvalSetup::from_specs(&[builtin("HD_ICP").unwrap()], OffsetChoice::Fixed(0))
         .unwrap()
-        .with_global(Default::default(), eval::GlobalChecks::On);
+        .with_global(Default::default(), eval::run::setup::GlobalChecks::On);
     let r = evaluate(
         &ds,
         &with_estimates(setup, &ds, &[spec("BAD", &path)]),

@@ -9,9 +9,15 @@ use std::io::Read;
 
 use datasets::synthetic::{generate, Scenario};
 use datasets::Dataset;
-use eval::evo::ReferenceTum;
-use eval::trajectory_metrics::{ate, EvoStats};
-use eval::{evaluate, write_outputs, EvalSetup, OffsetChoice, OutputDir, RunReport};
+use eval::measure::report::RunReport;
+use eval::measure::trajectory::ReferenceTum;
+use eval::measure::trajectory_metrics::ate;
+use eval::measure::trajectory_metrics::EvoStats;
+use eval::pipeline::evaluate;
+use eval::render::outdir::OutputDir;
+use eval::render::write_outputs;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 use nalgebra::{Isometry2, Vector2};
@@ -142,7 +148,7 @@ fn reference_tum_and_ate_come_from_the_written_files() {
 }
 
 /// A per-pair error column of pairs.csv.
-type Column = fn(&eval::report::PairRecord) -> Option<f64>;
+type Column = fn(&eval::measure::record::PairRecord) -> Option<f64>;
 
 #[test]
 fn evo_zips_read_back_as_the_pairs_errors_and_are_byte_identical_on_a_rerun() {

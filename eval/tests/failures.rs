@@ -2,9 +2,11 @@
 //! carries on.
 
 use datasets::synthetic::{generate, Scenario};
-use eval::report::RunReport;
-use eval::status::StatusKind;
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::measure::report::RunReport;
+use eval::pipeline::evaluate;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
+use eval::run::status::StatusKind;
 use icp_core::variants::builtin;
 use icp_core::Scan;
 use indicatif::ProgressBar;
@@ -63,7 +65,7 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
         (v_rate(&report, "HD_ICP") - 0.4).abs() < 1e-12,
         "2 of 5 pairs failed"
     );
-    let table = eval::output::table_md(&report);
+    let table = eval::render::markdown::table_md(&report);
     assert!(
         table.contains("| HD_ICP | 3 | 2 | 0 | 0 | 0 | 40.0 % | 60.0 % |"),
         "{table}"
@@ -180,7 +182,7 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
             }),
         ],
         offset: OffsetChoice::Fixed(0),
-        reference_checks: eval::ReferenceChecks::On,
+        reference_checks: eval::run::setup::ReferenceChecks::On,
         init: Default::default(),
         global: Default::default(),
         global_check: Default::default(),

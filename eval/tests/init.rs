@@ -4,10 +4,15 @@
 
 use datasets::synthetic::{generate, Scenario};
 use datasets::Dataset;
-use eval::init::{InitChain, InitError, InitMode};
-use eval::report::RunReport;
-use eval::status::StatusKind;
-use eval::{evaluate, EvalError, EvalSetup, OffsetChoice};
+use eval::error::EvalError;
+use eval::measure::report::RunReport;
+use eval::pipeline::evaluate;
+use eval::run::init::InitChain;
+use eval::run::init::InitError;
+use eval::run::init::InitMode;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
+use eval::run::status::StatusKind;
 use icp_core::variants::builtin;
 use icp_core::Scan;
 use indicatif::ProgressBar;
@@ -202,7 +207,7 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
         let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
             .unwrap()
             .with_init(init.parse().unwrap())
-            .with_global(Default::default(), eval::GlobalChecks::On);
+            .with_global(Default::default(), eval::run::setup::GlobalChecks::On);
         evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()
     };
     let identity = run("identity");
@@ -229,7 +234,7 @@ fn identity_fails_and_global_succeeds_on_a_large_motion() {
 }
 
 /// Registrations started at the global search gate their correspondences when their metric
-/// measures along a surface normal (see `eval::start_gate`): a wall that moved between the
+/// measures along a surface normal (see `eval::run::start_gate`): a wall that moved between the
 /// scans (a door, a parked car) pulls an ungated point-to-line fit off the true motion, while
 /// the gated one, started within a cell of it, never pairs the moved wall.
 #[test]

@@ -4,12 +4,15 @@
 mod common;
 
 use datasets::marina::{self, MarinaOptions};
-use eval::report::{ErrorStats, VariantSummary};
-use eval::{evaluate, EvalSetup, OffsetChoice};
+use eval::measure::report::ErrorStats;
+use eval::measure::report::VariantSummary;
+use eval::pipeline::evaluate;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
 use icp_core::variants::table1;
 use indicatif::ProgressBar;
 
-fn marina_report() -> eval::RunReport {
+fn marina_report() -> eval::measure::report::RunReport {
     let ds = marina::load(&common::data::marina_dir(), &MarinaOptions::default()).unwrap();
     let setup = EvalSetup::from_specs(&table1(), OffsetChoice::Fixed(0)).unwrap();
     evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap()

@@ -3,7 +3,8 @@
 
 mod common;
 
-use eval::{EvalError, OutputDir};
+use eval::error::EvalError;
+use eval::render::outdir::OutputDir;
 
 fn icp_eval(args: &[&str]) -> std::process::Output {
     common::icp_eval_command().args(args).output().unwrap()

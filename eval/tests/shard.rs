@@ -9,7 +9,10 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use eval::shard::{resolve, Shard, ShardError, ShardOrigin};
+use eval::shard::resolve;
+use eval::shard::Shard;
+use eval::shard::ShardError;
+use eval::shard::ShardOrigin;
 
 fn ok(o: Output) -> Output {
     assert!(
@@ -320,7 +323,7 @@ fn merge_refuses_a_missing_a_duplicate_and_a_foreign_part() {
 /// A part's bytes with every timing set to 0 and without its command line (which says
 /// `--threads` when given).
 fn part_without_timing(path: &Path) -> Vec<u8> {
-    let (_, mut part) = eval::merge::read_part(path).unwrap();
+    let (_, mut part) = eval::shard::merge::read_part(path).unwrap();
     part.command_line.clear();
     for (_, results) in &mut part.slices {
         if let eval::shard::SliceResults::Runs(runs) = results {
@@ -348,7 +351,7 @@ fn re_running_a_shard_rewrites_the_same_part() {
         &["--shard", "1/3", "--out", part_dir, "--threads", "1"],
     )));
     assert!(first == part_without_timing(&file), "the part changed");
-    let (_, part) = eval::merge::read_part(&file).unwrap();
+    let (_, part) = eval::shard::merge::read_part(&file).unwrap();
     assert!(part.command_line.iter().any(|a| a == "--threads"));
     assert_eq!(part.shard, Shard { index: 1, count: 3 });
     let runs = match &part.slices[0].1 {

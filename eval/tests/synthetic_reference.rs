@@ -2,7 +2,10 @@
 //! counter-clockwise, heading navigational), the time alignment and every pose.
 
 use datasets::synthetic::{generate, Scenario};
-use eval::{evaluate, EvalSetup, OffsetChoice, ReferenceChecks};
+use eval::pipeline::evaluate;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
+use eval::run::setup::ReferenceChecks;
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 
@@ -100,7 +103,9 @@ fn a_late_reference_is_detected_and_realigned() {
     assert_eq!(est.scans, 2, "{est:?}");
     assert!((est.seconds - 0.4).abs() < 1e-12);
     assert_eq!(auto.reference.offset_applied_scans, 2);
-    let dcog_std = |rep: &eval::RunReport| rep.variants[0].all_pairs.dcog_err_deg.unwrap().std;
+    let dcog_std = |rep: &eval::measure::report::RunReport| {
+        rep.variants[0].all_pairs.dcog_err_deg.unwrap().std
+    };
     // Misaligned, the turns' onsets show up as ΔCOG error; realigned, it is as small as with
     // the true alignment (the two pairs whose reference falls off the end are left out).
     assert!(
@@ -145,12 +150,12 @@ fn reference_checks_flag_a_repeated_position_unless_turned_off() {
         .collect();
     assert!(flagged.contains(&20), "{flagged:?}");
     assert_eq!(report.reference.plausible_pairs, 39 - flagged.len());
-    assert!(!eval::output::table_md(&report).contains("Reference checks: off"));
+    assert!(!eval::render::markdown::table_md(&report).contains("Reference checks: off"));
 
     let off = on.with_reference_checks(ReferenceChecks::Off);
     let report = evaluate(&ds, &off, &ProgressBar::hidden()).unwrap();
     assert!(report.reference.flagged_pairs.is_empty());
     assert_eq!(report.reference.plausible_pairs, 39);
     assert_eq!(report.reference.checks, ReferenceChecks::Off);
-    assert!(eval::output::table_md(&report).contains("Reference checks: off"));
+    assert!(eval::render::markdown::table_md(&report).contains("Reference checks: off"));
 }

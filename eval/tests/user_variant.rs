@@ -2,8 +2,12 @@
 //! report says what it is (not the chain it started from under another name).
 
 use datasets::synthetic::{generate, Scenario};
-use eval::compare::{compare, CompareOptions};
-use eval::{evaluate, EvalSetup, OffsetChoice, ReferenceChecks};
+use eval::measure::compare::compare;
+use eval::measure::compare::CompareOptions;
+use eval::pipeline::evaluate;
+use eval::run::setup::EvalSetup;
+use eval::run::setup::OffsetChoice;
+use eval::run::setup::ReferenceChecks;
 use icp_core::variants::{builtin, h_icp};
 use icp_core::weighting::{PairView, PairWeighting};
 use indicatif::ProgressBar;

@@ -14,7 +14,7 @@
 //!
 //! With `e_i = R p_i + T − q_i`, `Ω_i` and `w_i` held at the solution (the weights of the final
 //! iteration, robust factor included), `∂²J/∂x² = 2H`, `H = Σ w Eᵢᵀ Ω E_i` (`E_i = ∂e_i/∂δ`,
-//! the metric's Jacobian over the increment `δ`, see [`crate::metric::NormalEquations`]) and
+//! the metric's Jacobian over the increment `δ`, see `metric::NormalEquations`) and
 //! `∂²J/∂z∂x δz = 2 Σ w E_iᵀ Ω_i δe_i` to first order (the term in `e_i` itself vanishes with
 //! the residuals); the factors 2 cancel. A pair's end moves by its return's noise, so `δe_i = R δp_i − δq_i` and
 //!
@@ -28,7 +28,7 @@
 //!
 //! ## Neighbourhood means
 //! By default the metrics take a pair's ends at the means of the returns' neighbourhoods
-//! ([`crate::metric::Anchor`]); a mean of `k` returns carries `1/k` of each one's noise, but
+//! (`metric::Anchor`); a mean of `k` returns carries `1/k` of each one's noise, but
 //! each return enters the `k` means around it, whose pairs have nearly the same `E` and `n`: the
 //! contributions add back to one return's. To first order, with every return in about one pair,
 //! `M` is the sum above with each pair charged its own two returns' noise.

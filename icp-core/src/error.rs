@@ -100,14 +100,14 @@ pub enum IcpError {
     /// The minimiser produced a non-finite transform.
     #[error("the minimiser produced a non-finite transform")]
     NonFiniteTransform,
-    /// An estimator outside this crate (a pose that [`crate::assess`] would assess) gave no
+    /// An estimator outside this crate (a pose that the `assess` module would assess) gave no
     /// estimate for the pair: a failure of that estimator.
     #[error("no estimate: {why}")]
     NoEstimate {
         /// Why, in words (e.g. the file has no pose for one of the scans).
         why: String,
     },
-    /// A global search (see [`crate::global`]) that would need more memory or time than its
+    /// A global search (see the `global` module) that would need more memory or time than its
     /// limit: too many grid cells, or too many rotation candidates.
     #[error("the global search needs {count} {what}, more than the limit of {max}")]
     GlobalSearchTooLarge {
@@ -135,7 +135,7 @@ pub enum IcpError {
 }
 
 /// A variant's configuration that cannot be built: what is wrong, naming the stage and the
-/// parameter (generated from the registered kinds, see [`crate::registry`]).
+/// parameter (generated from the registered kinds, see the `registry` module).
 #[derive(Debug, thiserror::Error, Clone, PartialEq, Serialize, Deserialize)]
 pub enum ConfigError {
     /// No kind of this name is registered in the family.
@@ -167,7 +167,7 @@ pub enum ConfigError {
         #[serde(deserialize_with = "crate::static_str::deserialize")]
         section: crate::static_str::StaticStr,
         /// The parameter and what is wrong with it.
-        source: crate::registry::ParamError,
+        source: ParamError,
     },
     /// Two stages that cannot work together.
     #[error("{0}")]
@@ -181,4 +181,51 @@ pub enum ConfigError {
         #[serde(deserialize_with = "crate::static_str::deserialize")]
         reason: crate::static_str::StaticStr,
     },
+}
+
+/// A parameter outside its domain: which one, its value and why.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error, serde::Serialize, serde::Deserialize)]
+#[error("{parameter} = {value}: {reason}")]
+pub struct ParamError {
+    /// The parameter's name, as written in a configuration file.
+    #[serde(deserialize_with = "crate::static_str::deserialize")]
+    pub parameter: crate::static_str::StaticStr,
+    /// Its value, as given.
+    pub value: String,
+    /// What it must be.
+    #[serde(deserialize_with = "crate::static_str::deserialize")]
+    pub reason: crate::static_str::StaticStr,
+}
+
+impl ParamError {
+    /// `parameter` has the bad `value` for `reason`.
+    pub fn new(parameter: &'static str, value: impl fmt::Display, reason: &'static str) -> Self {
+        Self {
+            parameter,
+            value: value.to_string(),
+            reason,
+        }
+    }
+
+    /// `Ok` when `value` is finite and positive.
+    pub fn check_positive(parameter: &'static str, value: f64) -> Result<(), Self> {
+        if value.is_finite() && value > 0.0 {
+            Ok(())
+        } else {
+            Err(Self::new(parameter, value, "must be finite and positive"))
+        }
+    }
+
+    /// `Ok` when `value` is finite and not negative.
+    pub fn check_non_negative(parameter: &'static str, value: f64) -> Result<(), Self> {
+        if value.is_finite() && value >= 0.0 {
+            Ok(())
+        } else {
+            Err(Self::new(
+                parameter,
+                value,
+                "must be finite and non-negative",
+            ))
+        }
+    }
 }

@@ -50,7 +50,7 @@ impl Registration {
         !matches!(self.stop, StopReason::MaxIterations | StopReason::Given)
     }
 
-    /// False for a pose estimated elsewhere and assessed here ([`crate::assess`]): its
+    /// False for a pose estimated elsewhere and assessed here (the `assess` module): its
     /// iteration count and convergence are not ours to report.
     pub fn iterated(&self) -> bool {
         self.stop != StopReason::Given

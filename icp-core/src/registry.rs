@@ -2,9 +2,9 @@
 //!
 //! A registration method is a chain of stages (Algorithm 1 of Naus & Marchel 2019): selection,
 //! matching, error metric, pair weighting, robust rejection and minimisation. Each stage has a
-//! *family* (a trait: [`crate::select::Selection`], [`crate::matching::Matcher`],
-//! [`crate::metric::Metric`], [`crate::weighting::PairWeighting`],
-//! [`crate::robust::RobustKernel`], [`crate::minimize::Minimizer`]) and *kinds* (its
+//! *family* (a trait: `select::Selection`, `matching::Matcher`, `metric::Metric`,
+//! `weighting::PairWeighting`, `robust::RobustKernel`, `minimize::Minimizer`; each family's
+//! module depends on this one, never the other way) and *kinds* (its
 //! implementations). A kind is registered once, as one line in its family's [`Family`] list,
 //! with a [`Kind`]: its name, a one-line summary with its citation, its typed parameters (a
 //! serde struct with units in the field names, defaults and a `validate`), and how it is built.
@@ -22,6 +22,8 @@ use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use serde_json::{Map, Value};
+
+pub use crate::error::ParamError;
 
 use crate::error::ConfigError;
 use crate::SensorModel;
@@ -127,53 +129,6 @@ impl fmt::Display for StageSpec {
 pub struct BuildContext {
     /// The error model of both scans.
     pub sensor: SensorModel,
-}
-
-/// A parameter outside its domain: which one, its value and why.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error, serde::Serialize, serde::Deserialize)]
-#[error("{parameter} = {value}: {reason}")]
-pub struct ParamError {
-    /// The parameter's name, as written in a configuration file.
-    #[serde(deserialize_with = "crate::static_str::deserialize")]
-    pub parameter: crate::static_str::StaticStr,
-    /// Its value, as given.
-    pub value: String,
-    /// What it must be.
-    #[serde(deserialize_with = "crate::static_str::deserialize")]
-    pub reason: crate::static_str::StaticStr,
-}
-
-impl ParamError {
-    /// `parameter` has the bad `value` for `reason`.
-    pub fn new(parameter: &'static str, value: impl fmt::Display, reason: &'static str) -> Self {
-        Self {
-            parameter,
-            value: value.to_string(),
-            reason,
-        }
-    }
-
-    /// `Ok` when `value` is finite and positive.
-    pub fn check_positive(parameter: &'static str, value: f64) -> Result<(), Self> {
-        if value.is_finite() && value > 0.0 {
-            Ok(())
-        } else {
-            Err(Self::new(parameter, value, "must be finite and positive"))
-        }
-    }
-
-    /// `Ok` when `value` is finite and not negative.
-    pub fn check_non_negative(parameter: &'static str, value: f64) -> Result<(), Self> {
-        if value.is_finite() && value >= 0.0 {
-            Ok(())
-        } else {
-            Err(Self::new(
-                parameter,
-                value,
-                "must be finite and non-negative",
-            ))
-        }
-    }
 }
 
 /// The typed parameters of a stage kind. Every field has a default (`#[serde(default)]` on the

@@ -3,7 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::registry::ParamError;
+use crate::error::ParamError;
 
 /// Stops the iteration when the mean residual of the metric (the mean pair distance for
 /// point-to-point, as in the paper) changes by less than `mean_residual_change_eps_m` between
@@ -91,7 +91,7 @@ pub enum StopReason {
     /// `max_iterations` steps were taken without settling.
     MaxIterations,
     /// Nothing was iterated: the pose was estimated elsewhere and assessed at its value
-    /// ([`crate::assess`]).
+    /// (the `assess` module).
     Given,
 }
 

@@ -77,8 +77,8 @@ use nalgebra::{Isometry2, Point2, Translation2, UnitComplex, Vector2};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::error::ParamError;
 use crate::error::{ConfigError, ScanRole};
-use crate::registry::ParamError;
 use crate::{IcpError, Prepared};
 use grid::{mean_of, range_weight};
 pub use grid::{score_at, LikelihoodGrid};

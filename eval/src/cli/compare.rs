@@ -1,0 +1,77 @@
+//! `icp-eval compare`: the variants pair by pair (bootstrap interval, Wilcoxon test), optionally
+//! over a parameter sweep.
+
+use std::process::ExitCode;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use eval::measure::compare::{compare, CompareOptions};
+use eval::measure::sweep::parse_sweep;
+use eval::render::studies::{write_compare, write_sweep};
+use eval::shard::SweepPlan;
+use eval::shard::Work;
+use eval::studies::sweep;
+
+use crate::cli::common::{evaluate_and_write, in_pool, progress, run_shard_cmd, shard_of};
+use crate::cli::data::load_dataset;
+use crate::cli::run::{note_estimates, RunArgs};
+use crate::cli::variants::resolve_variants;
+
+#[derive(Args)]
+pub(crate) struct CompareArgs {
+    #[command(flatten)]
+    pub(crate) run: RunArgs,
+    /// Bootstrap resamples.
+    #[arg(long, default_value_t = 10_000)]
+    pub(crate) bootstrap: usize,
+    /// Bootstrap seed.
+    #[arg(long, default_value_t = 0)]
+    pub(crate) bootstrap_seed: u64,
+    /// Also re-run the variants over values of one parameter: sigma_alpha_deg=0.1,0.5,... or
+    /// huber_c=1,2.0138,3.
+    #[arg(long)]
+    pub(crate) sweep: Option<String>,
+}
+
+pub(crate) fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
+    let run = &args.run;
+    let ds = load_dataset(&run.data)?;
+    let variants = resolve_variants(&run.variants, &ds)?;
+    let options = CompareOptions {
+        resamples: args.bootstrap,
+        seed: args.bootstrap_seed,
+    };
+    let sweep = args
+        .sweep
+        .as_deref()
+        .map(|text| {
+            parse_sweep(text)
+                .map(|(param, values)| SweepPlan { param, values })
+                .map_err(anyhow::Error::msg)
+                .context("--sweep")
+        })
+        .transpose()?;
+    if let Some(shard) = shard_of(&run.shard)? {
+        let work = Work::Compare {
+            run: run.run_options()?,
+            options,
+            sweep,
+        };
+        return run_shard_cmd(&ds, variants, work, shard, &run.out, &run.common);
+    }
+    let setup = run.run_options()?.setup(&variants, &ds)?;
+    note_estimates(&setup);
+    let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
+    println!(
+        "{}",
+        write_compare(&mut dir, &report, &compare(&report, &options), &options)?
+    );
+    if let Some(SweepPlan { param, values }) = sweep {
+        let bar = progress(run.common.quiet, "sweep");
+        let result = in_pool(run.common.threads, || {
+            sweep::sweep(&ds, &setup, &variants, param, &values, &bar)
+        })??;
+        println!("{}", write_sweep(&mut dir, &result, !run.common.no_plots)?);
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,6 @@
+//! The figures, each as PNG and SVG, drawn with plotters from a report: [`run`] for one run's,
+//! [`studies`] for the studies' (sweep, basin, scaling), on the shared pieces of [`draw`].
+
+pub mod draw;
+pub mod run;
+pub mod studies;

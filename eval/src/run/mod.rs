@@ -1,0 +1,13 @@
+//! Run: who registers what, from where. A [`setup::EvalSetup`] says which methods run and how;
+//! the [`runner`] registers every method on every pair from the starts of [`init`] (gated by
+//! [`start_gate`]), checks each result ([`status`]), and [`sampled`] and [`estimates`] add
+//! sampled covariances and estimates made elsewhere.
+
+pub mod covariance;
+pub mod estimates;
+pub mod init;
+pub mod runner;
+pub mod sampled;
+pub mod setup;
+pub mod start_gate;
+pub mod status;

@@ -1,0 +1,647 @@
+//! Runs registrars over scan pairs in parallel, a block of pairs at a time. The surface
+//! estimates of a block's scans are made once (per distinct set of parameters among the
+//! variants), shared by every registration that uses the scan, and dropped after the block
+//! (a scan shared with the next block is kept), so memory follows the block, not the dataset.
+//! Within a block rayon runs the pairs, each pair's variants one after the other in one
+//! workspace. Results are collected by index, so they do not depend on the thread count.
+//! External estimates ([`crate::run::estimates`]) run as methods too: each pair's estimate is
+//! assessed at its pose ([`icp_core::assess`]) and checked like a registration.
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::time::Instant;
+
+use datasets::{Dataset, ScanPair};
+use icp_core::global::{score_at, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace};
+use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
+use indicatif::ProgressBar;
+use nalgebra::Isometry2;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::run::estimates::ExternalEstimates;
+use crate::run::init;
+use crate::run::init::InitChain;
+use crate::run::init::InitMode;
+use crate::run::init::Previous;
+use crate::run::status::GlobalCheck;
+use crate::run::status::PairStatus;
+
+/// One registration's outcome and its wall time (serialized whole into the part files of a
+/// sharded run, see the `shard` module).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct PairRun {
+    /// The registration, or why it failed.
+    pub result: Result<Registration, IcpError>,
+    /// The verdict on it.
+    pub status: PairStatus,
+    /// What the pair's global search says about the result, when results are checked.
+    pub check: Option<GlobalCheck>,
+    /// The initial-guess mode whose start gave the result kept (`None`: an external
+    /// estimate, not started here).
+    pub init: Option<InitMode>,
+    /// Registrations made along the init chain (the result kept is the last of them; 0 for
+    /// an external estimate).
+    pub attempts: usize,
+    /// Wall time of the registrations made along the init chain, their scans' surface
+    /// estimates and the pair's global search aside, microseconds (not reproducible: kept
+    /// apart; `None` for an external estimate, whose time is not known here).
+    pub time_us: Option<f64>,
+}
+
+/// The global search of one pair (made once, shared by every variant).
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct PairSearch {
+    /// Its best pose and score, or why it could not run (the pair's registrations then start
+    /// at the identity where the chain says global, and are not checked).
+    pub result: Result<GlobalGuess, IcpError>,
+    /// Wall time of the grid and the search, microseconds.
+    pub time_us: f64,
+}
+
+/// Every registration of a run.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct Runs {
+    /// `per_variant[method][pair]`, the methods in [`Methods`]' order (the registrars, then
+    /// the external estimates).
+    pub per_variant: Vec<Vec<PairRun>>,
+    /// Per scan that takes part in a pair, the wall time of its surface estimates (all the
+    /// parameter sets the variants use), microseconds: made once, shared by every variant and
+    /// by both pairs that use the scan.
+    pub prepare_us: Vec<f64>,
+    /// Per pair, its global search, when the chain starts at one or results are checked.
+    pub searches: Vec<PairSearch>,
+}
+
+/// What a run does besides registering: where registrations start, and whether a global
+/// search checks every result.
+#[derive(Clone)]
+pub struct RunPlan<'a> {
+    /// The init chain.
+    pub chain: &'a InitChain,
+    /// The global search's parameters.
+    pub global: &'a GlobalParams,
+    /// Whether every result is checked against the pair's global search.
+    pub check: bool,
+}
+
+impl RunPlan<'_> {
+    /// True when each pair needs its global search.
+    fn searches(&self) -> bool {
+        self.check || self.chain.global()
+    }
+}
+
+/// The methods a run evaluates, in the order of their results: the registrars, then the
+/// external estimates.
+#[derive(Clone, Copy)]
+pub struct Methods<'a> {
+    /// The registration methods.
+    pub registrars: &'a [Box<dyn Registrar>],
+    /// Per registrar (same order), the one a close start (the global search's pose, the
+    /// reference) uses instead, when such starts gate their correspondences
+    /// ([`crate::run::start_gate`]); empty: none does.
+    pub close: &'a [Option<Box<dyn Registrar>>],
+    /// Estimates made elsewhere, per pair of the run.
+    pub external: &'a [ExternalEstimates],
+}
+
+impl<'a> Methods<'a> {
+    /// The registrars alone, none gated.
+    pub fn registrars(registrars: &'a [Box<dyn Registrar>]) -> Self {
+        Self {
+            registrars,
+            close: &[],
+            external: &[],
+        }
+    }
+
+    /// How many methods.
+    pub fn len(&self) -> usize {
+        self.registrars.len() + self.external.len()
+    }
+
+    /// True without any method.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Methods `range` (numbered in result order), each with its own gated twin: what a shard
+    /// that runs some methods runs.
+    pub fn slice(&self, range: Range<usize>) -> Self {
+        let n = self.registrars.len();
+        let clip = |r: &Range<usize>, len: usize| r.start.min(len)..r.end.min(len);
+        let registrars = clip(&range, n);
+        let external = range.start.saturating_sub(n)..range.end.saturating_sub(n);
+        Self {
+            registrars: &self.registrars[registrars.clone()],
+            close: if self.close.is_empty() {
+                &[]
+            } else {
+                &self.close[registrars]
+            },
+            external: &self.external[clip(&external, self.external.len())],
+        }
+    }
+
+    /// The registrar a close start of registrar `v` uses, when it is another one.
+    fn gated(&self, v: usize) -> Option<&'a dyn Registrar> {
+        self.close.get(v).and_then(|r| r.as_deref())
+    }
+}
+
+/// Pairs per block. The surface estimates of the block's scans (one more than its pairs when
+/// they are consecutive) are held at once: ~12 MB for scans of ~650 returns. A block is long
+/// enough for the threads' barrier at its end to cost nothing measurable.
+const BLOCK_PAIRS: usize = 256;
+
+/// The surface estimates of the current block's scans, per distinct parameter set.
+struct PreparedScans<'a> {
+    params: &'a [SurfaceParams],
+    /// Scan index → one estimate per parameter set.
+    per_scan: BTreeMap<usize, Vec<Surfaces>>,
+}
+
+impl PreparedScans<'_> {
+    fn get(&self, params: &SurfaceParams, scan: usize) -> &Surfaces {
+        let set = self
+            .params
+            .iter()
+            .position(|p| p == params)
+            .expect("every variant's parameters were prepared");
+        &self
+            .per_scan
+            .get(&scan)
+            .expect("every scan of the block was prepared")[set]
+    }
+
+    /// Keeps the estimates of the scans of `block` already made, drops the others, makes the
+    /// missing ones in parallel, and appends their times (in scan order) to `times_us`.
+    fn advance(&mut self, ds: &Dataset, block: &[ScanPair], times_us: &mut Vec<f64>) {
+        let mut wanted: Vec<usize> = block.iter().flat_map(|p| [p.source, p.reference]).collect();
+        wanted.sort_unstable();
+        wanted.dedup();
+        // The previous block's other estimates are dropped before the new ones are made.
+        let mut previous = std::mem::take(&mut self.per_scan);
+        for k in &wanted {
+            if let Some(surfaces) = previous.remove(k) {
+                self.per_scan.insert(*k, surfaces);
+            }
+        }
+        drop(previous);
+        let missing: Vec<usize> = wanted
+            .into_iter()
+            .filter(|k| !self.per_scan.contains_key(k))
+            .collect();
+        let params = self.params;
+        let made: Vec<(Vec<Surfaces>, f64)> = missing
+            .par_iter()
+            .map(|&k| {
+                let start = Instant::now();
+                let s = params
+                    .iter()
+                    .map(|p| Surfaces::estimate(&ds.scans[k], p))
+                    .collect();
+                (s, start.elapsed().as_secs_f64() * 1e6)
+            })
+            .collect();
+        for (k, (surfaces, time_us)) in missing.into_iter().zip(made) {
+            self.per_scan.insert(k, surfaces);
+            times_us.push(time_us);
+        }
+    }
+}
+
+/// Registers every pair with every registrar, each starting as `plan` says (its chain checked
+/// against `ds` by the caller).
+pub fn run_all(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    methods: Methods<'_>,
+    plan: &RunPlan<'_>,
+    progress: &ProgressBar,
+) -> Runs {
+    run_blocks(ds, pairs, methods, plan, progress, BLOCK_PAIRS, 0)
+}
+
+/// [`run_all`] over `pairs`, the run's pairs from position `first` on (a shard of a run,
+/// see the `shard` module): each pair runs its variants in the order it has in the whole run,
+/// so a shard repeats the whole run's registrations exactly.
+pub fn run_from(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    first: usize,
+    methods: Methods<'_>,
+    plan: &RunPlan<'_>,
+    progress: &ProgressBar,
+) -> Runs {
+    run_blocks(ds, pairs, methods, plan, progress, BLOCK_PAIRS, first)
+}
+
+/// A pair's global search with the reference's likelihood grid, which scores the results.
+struct Searched {
+    matcher: GlobalMatcher,
+    guess: GlobalGuess,
+}
+
+/// What the registrations of a block need besides the registrar and the pair.
+struct BlockJob<'a> {
+    ds: &'a Dataset,
+    prepared: &'a PreparedScans<'a>,
+    plan: &'a RunPlan<'a>,
+}
+
+impl BlockJob<'_> {
+    /// The global search of `pair` (surfaces of the default parameters, which the runner
+    /// always prepares when searches are made).
+    fn search(
+        &self,
+        pair: ScanPair,
+        workspace: &mut GlobalWorkspace,
+    ) -> (Option<Searched>, PairSearch) {
+        let params = SurfaceParams::default();
+        let prepared_scan =
+            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+        let clock = Instant::now();
+        let searched = GlobalMatcher::new(prepared_scan(pair.reference), self.plan.global)
+            .and_then(|matcher| {
+                let guess =
+                    matcher.search(workspace, prepared_scan(pair.source), Isometry2::identity())?;
+                Ok(Searched { matcher, guess })
+            });
+        let time_us = clock.elapsed().as_secs_f64() * 1e6;
+        match searched {
+            Ok(s) => {
+                let info = PairSearch {
+                    result: Ok(s.guess),
+                    time_us,
+                };
+                (Some(s), info)
+            }
+            Err(e) => (
+                None,
+                PairSearch {
+                    result: Err(e),
+                    time_us,
+                },
+            ),
+        }
+    }
+
+    /// Registers `pair` with the variant (its registrar, and the one a close start uses when
+    /// that differs) from each start of the chain in turn, until a result is not flagged
+    /// (else the last one is kept); `previous` is the variant's previous result and `searched`
+    /// the pair's global search.
+    fn run(
+        &self,
+        variant: (&dyn Registrar, Option<&dyn Registrar>),
+        workspace: &mut Workspace,
+        pair: ScanPair,
+        previous: Option<&Previous>,
+        searched: Option<&Searched>,
+    ) -> PairRun {
+        let (reg, reg_close) = variant;
+        let params = reg.surface_params();
+        let prepared_scan =
+            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+        let (source, reference) = (prepared_scan(pair.source), prepared_scan(pair.reference));
+        let dt_s = self.ds.pair_dt_s(pair);
+        let mut time_us = 0.0;
+        let mut kept = None;
+        for (attempt, &mode) in self.plan.chain.modes().iter().enumerate() {
+            let guess = searched.map(|s| &s.guess);
+            let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
+            let chosen = match reg_close {
+                Some(gated) if used.is_close() => gated,
+                _ => reg,
+            };
+            let clock = Instant::now();
+            let result = chosen.register_prepared(workspace, source, reference, start);
+            time_us += clock.elapsed().as_secs_f64() * 1e6;
+            let check = self.check(&result, searched, source.scan);
+            let status = PairStatus::of(&result, check.as_ref());
+            let done = !status.is_failure();
+            kept = Some(PairRun {
+                result,
+                status,
+                check,
+                init: Some(used),
+                attempts: attempt + 1,
+                time_us: Some(time_us),
+            });
+            if done {
+                break;
+            }
+        }
+        kept.expect("a chain has at least one mode")
+    }
+
+    /// What the pair's global search says about `result` of the source scan `source`, when
+    /// results are checked.
+    fn check(
+        &self,
+        result: &Result<Registration, IcpError>,
+        searched: Option<&Searched>,
+        source: &icp_core::Scan,
+    ) -> Option<GlobalCheck> {
+        match (result, searched) {
+            (Ok(r), Some(s)) if self.plan.check => Some(GlobalCheck {
+                best_t_ref_src: s.guess.t_ref_src,
+                best_score: s.guess.score,
+                result_t_ref_src: r.t_ref_src,
+                result_score: score_at(s.matcher.grid(), source, &r.t_ref_src),
+            }),
+            _ => None,
+        }
+    }
+
+    /// The external estimate of the pair at `position` in the run, assessed at its pose and
+    /// checked as a registration is; a pair the file has no estimate for is a failure of
+    /// the estimator.
+    fn assess(
+        &self,
+        external: &ExternalEstimates,
+        position: usize,
+        pair: ScanPair,
+        searched: Option<&Searched>,
+    ) -> PairRun {
+        let params = SurfaceParams::default();
+        let prepared_scan =
+            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+        let source = prepared_scan(pair.source);
+        let result = match external.per_pair.get(position).copied().flatten() {
+            Some(t_ref_src) => icp_core::assess(source, prepared_scan(pair.reference), t_ref_src),
+            None => Err(IcpError::NoEstimate {
+                why: format!(
+                    "{} has none for scans {} → {}",
+                    external.source.path.display(),
+                    pair.source,
+                    pair.reference
+                ),
+            }),
+        };
+        let check = self.check(&result, searched, source.scan);
+        PairRun {
+            status: PairStatus::of(&result, check.as_ref()),
+            result,
+            check,
+            init: None,
+            attempts: 0,
+            time_us: None,
+        }
+    }
+}
+
+/// [`run_all`] with blocks of `block_pairs` pairs, the first of `pairs` at position `first`
+/// of the run.
+fn run_blocks(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    methods: Methods<'_>,
+    plan: &RunPlan<'_>,
+    progress: &ProgressBar,
+    block_pairs: usize,
+    first: usize,
+) -> Runs {
+    let searches = plan.searches();
+    let registrars = methods.registrars;
+    // The searches and the external estimates' assessment use the default surfaces.
+    let default_surfaces = searches || !methods.external.is_empty();
+    let params = distinct_surface_params(
+        registrars
+            .iter()
+            .map(|r| r.surface_params())
+            .chain(default_surfaces.then(SurfaceParams::default)),
+    );
+    let mut prepared = PreparedScans {
+        params: &params,
+        per_scan: BTreeMap::new(),
+    };
+    let mut prepare_us = Vec::new();
+    let mut pair_searches = Vec::new();
+    let n = registrars.len();
+    let mut per_variant: Vec<Vec<PairRun>> = (0..methods.len())
+        .map(|_| Vec::with_capacity(pairs.len()))
+        .collect();
+    for (b, block) in pairs.chunks(block_pairs).enumerate() {
+        prepared.advance(ds, block, &mut prepare_us);
+        let job = BlockJob {
+            ds,
+            prepared: &prepared,
+            plan,
+        };
+        let position = |i: usize| first + b * block_pairs + i;
+        // The external estimates of one pair, after its registrations.
+        let assess_all = |i: usize, pair: ScanPair, searched: Option<&Searched>| {
+            methods
+                .external
+                .iter()
+                .map(|e| {
+                    let run = job.assess(e, position(i), pair, searched);
+                    progress.inc(1);
+                    run
+                })
+                .collect::<Vec<PairRun>>()
+        };
+        if plan.chain.sequential() {
+            // A start depends on the same variant's previous result: the pairs' searches are
+            // made first (in parallel; a grid is rebuilt where a result is scored), then each
+            // variant runs its pairs in order, the variants in parallel.
+            if searches {
+                let made: Vec<PairSearch> = block
+                    .par_iter()
+                    .map_init(GlobalWorkspace::default, |gws, &pair| {
+                        job.search(pair, gws).1
+                    })
+                    .collect();
+                pair_searches.extend(made);
+            }
+            let runs: Vec<Vec<PairRun>> = registrars
+                .par_iter()
+                .zip(per_variant.par_iter())
+                .enumerate()
+                .map(|(v, (reg, done))| {
+                    let mut workspace = Workspace::default();
+                    let mut gws = GlobalWorkspace::default();
+                    // Carried over from the block before.
+                    let mut previous = done
+                        .last()
+                        .map(|run| previous_of(ds, pairs[done.len() - 1], run));
+                    block
+                        .iter()
+                        .map(|&pair| {
+                            let searched = searches.then(|| job.search(pair, &mut gws).0).flatten();
+                            let run = job.run(
+                                (reg.as_ref(), methods.gated(v)),
+                                &mut workspace,
+                                pair,
+                                previous.as_ref(),
+                                searched.as_ref(),
+                            );
+                            progress.inc(1);
+                            previous = Some(previous_of(ds, pair, &run));
+                            run
+                        })
+                        .collect()
+                })
+                .collect();
+            for (variant, block_runs) in per_variant.iter_mut().zip(runs) {
+                variant.extend(block_runs);
+            }
+            if !methods.external.is_empty() {
+                let assessed: Vec<Vec<PairRun>> = block
+                    .par_iter()
+                    .enumerate()
+                    .map_init(GlobalWorkspace::default, |gws, (i, &pair)| {
+                        let searched = searches.then(|| job.search(pair, gws).0).flatten();
+                        assess_all(i, pair, searched.as_ref())
+                    })
+                    .collect();
+                for pair_runs in assessed {
+                    for (variant, run) in per_variant[n..].iter_mut().zip(pair_runs) {
+                        variant.push(run);
+                    }
+                }
+            }
+            continue;
+        }
+        let runs: Vec<(Vec<PairRun>, Option<PairSearch>)> = block
+            .par_iter()
+            .enumerate()
+            // One workspace per rayon job: buffers are reused across the pairs a thread runs
+            // (results never depend on what a workspace held before).
+            .map_init(
+                || (Workspace::default(), GlobalWorkspace::default()),
+                |(workspace, gws), (i, &pair)| {
+                    let (searched, search) = if searches {
+                        let (s, info) = job.search(pair, gws);
+                        (s, Some(info))
+                    } else {
+                        (None, None)
+                    };
+                    // A workspace hands a variant the reference index and first matching of
+                    // the one before it on the same pair (same selection, matcher and start):
+                    // the first of such a group pays for both. Each pair runs its variants in
+                    // its own order, so every variant comes first in its group equally often
+                    // and the timings compare.
+                    let mut order: Vec<usize> = (0..n).collect();
+                    order.shuffle(&mut ChaCha8Rng::seed_from_u64(position(i) as u64));
+                    let mut runs: Vec<(usize, PairRun)> = order
+                        .into_iter()
+                        .map(|v| {
+                            let run = job.run(
+                                (registrars[v].as_ref(), methods.gated(v)),
+                                workspace,
+                                pair,
+                                None,
+                                searched.as_ref(),
+                            );
+                            progress.inc(1);
+                            (v, run)
+                        })
+                        .collect();
+                    runs.sort_by_key(|(v, _)| *v);
+                    let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
+                    runs.extend(assess_all(i, pair, searched.as_ref()));
+                    (runs, search)
+                },
+            )
+            .collect();
+        for (pair_runs, search) in runs {
+            for (variant, run) in per_variant.iter_mut().zip(pair_runs) {
+                variant.push(run);
+            }
+            pair_searches.extend(search);
+        }
+    }
+    Runs {
+        per_variant,
+        prepare_us,
+        searches: pair_searches,
+    }
+}
+
+/// The distinct parameter sets among `wanted`, in first-seen order: one surface estimate per
+/// scan and set.
+pub(crate) fn distinct_surface_params(
+    wanted: impl Iterator<Item = SurfaceParams>,
+) -> Vec<SurfaceParams> {
+    let mut params: Vec<SurfaceParams> = Vec::new();
+    for p in wanted {
+        if !params.contains(&p) {
+            params.push(p);
+        }
+    }
+    params
+}
+
+/// What a constant-velocity start of the next pair takes from `run` of `pair`: its estimate
+/// unless it was flagged.
+fn previous_of(ds: &Dataset, pair: ScanPair, run: &PairRun) -> Previous {
+    Previous {
+        pair,
+        dt_s: ds.pair_dt_s(pair),
+        t_ref_src: match (&run.result, &run.status) {
+            (Ok(reg), PairStatus::Ok) => Some(reg.t_ref_src),
+            _ => None,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use datasets::synthetic::{generate, Scenario};
+    use icp_core::variants::builtin;
+
+    use super::*;
+
+    #[test]
+    fn blocks_change_no_result_and_estimate_each_scan_once() {
+        let ds = generate(&Scenario {
+            n_scans: 12,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let (mut pairs, _) = ds.consecutive_pairs();
+        // A pair out of order and a scan used far from its neighbours.
+        pairs.push(ScanPair {
+            source: 0,
+            reference: 2,
+        });
+        let registrars: Vec<Box<dyn Registrar>> = ["HD_ICP", "GICP"]
+            .iter()
+            .map(|n| Box::new(builtin(n).unwrap().build().unwrap()) as Box<dyn Registrar>)
+            .collect();
+        let poses = |runs: &Runs| -> Vec<Vec<_>> {
+            runs.per_variant
+                .iter()
+                .map(|v| {
+                    v.iter()
+                        .map(|r| r.result.as_ref().unwrap().t_ref_src)
+                        .collect()
+                })
+                .collect()
+        };
+        let progress = ProgressBar::hidden();
+        let chain = InitChain::default();
+        let plan = RunPlan {
+            chain: &chain,
+            global: &GlobalParams::default(),
+            check: true,
+        };
+        let methods = Methods::registrars(&registrars);
+        let whole = run_blocks(&ds, &pairs, methods, &plan, &progress, BLOCK_PAIRS, 0);
+        assert_eq!(whole.per_variant[0].len(), pairs.len());
+        for block_pairs in [1, 2, 5] {
+            let blocks = run_blocks(&ds, &pairs, methods, &plan, &progress, block_pairs, 0);
+            assert_eq!(poses(&blocks), poses(&whole), "blocks of {block_pairs}");
+            // Scans 0..12 once each, and scans 0 and 2 again for the last pair: its block
+            // holds only the scans it shares with the block before (scan 10).
+            let expected = if block_pairs >= pairs.len() { 12 } else { 14 };
+            assert_eq!(blocks.prepare_us.len(), expected, "blocks of {block_pairs}");
+        }
+        assert_eq!(whole.prepare_us.len(), 12);
+    }
+}

@@ -1,0 +1,208 @@
+//! What the harness says about one registration: it stands, or why its number cannot be
+//! trusted. The status is typed; it becomes text only in the output files.
+//!
+//! Every status but [`PairStatus::Ok`] is a failure of its variant on that pair: it is counted
+//! in the variant's failure rate. A flagged registration's number still enters its variant's
+//! error statistics (which are taken over the same pairs for every variant, see
+//! the report), so flagging a wrong number never makes a variant look more accurate.
+
+use std::fmt;
+
+use icp_core::quality::{DEGENERATE_RATIO, MIN_OVERLAP, OVERLAP_GATE_M};
+use icp_core::{IcpError, Registration};
+use nalgebra::Isometry2;
+use serde::{Deserialize, Serialize};
+
+/// The verdict on one registration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum PairStatus {
+    /// Registered, and nothing says the number is wrong.
+    Ok,
+    /// Registered, but the final pairs barely constrain one direction of the motion
+    /// (conditioning ratio below [`DEGENERATE_RATIO`]): a corridor, a single wall.
+    Degenerate {
+        /// Smallest over largest eigenvalue of the Hessian at the solution.
+        cond_ratio: f64,
+    },
+    /// Registered, but the scans do not see the same surfaces at the solution (overlap below
+    /// [`MIN_OVERLAP`]).
+    NoOverlap {
+        /// The smaller of the two overlap fractions.
+        overlap: f64,
+    },
+    /// Registered, but a global search finds a pose far from the result that explains the
+    /// scans clearly better: the result is probably a local minimum (see [`GlobalCheck`]).
+    Suspect {
+        /// What the global search saw.
+        check: GlobalCheck,
+    },
+    /// No registration: the method refused the input or broke down.
+    Failed {
+        /// The error, as the method said it.
+        error: IcpError,
+    },
+}
+
+/// The kind of a [`PairStatus`], without its figures: the `status` column of `pairs.csv`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StatusKind {
+    /// See [`PairStatus::Ok`].
+    Ok,
+    /// See [`PairStatus::Degenerate`].
+    Degenerate,
+    /// See [`PairStatus::NoOverlap`].
+    NoOverlap,
+    /// See [`PairStatus::Suspect`].
+    Suspect,
+    /// See [`PairStatus::Failed`].
+    Failed,
+}
+
+impl PairStatus {
+    /// The verdict on `result`: a failure first, then no overlap (a registration of scans
+    /// that do not see the same surfaces means nothing, however well conditioned), then
+    /// degenerate, then suspect when a global search's `check` says so.
+    pub fn of(result: &Result<Registration, IcpError>, check: Option<&GlobalCheck>) -> Self {
+        match result {
+            Err(error) => Self::Failed {
+                error: error.clone(),
+            },
+            Ok(r) if r.no_overlap() => Self::NoOverlap { overlap: r.overlap },
+            Ok(r) => match (r.conditioning, check) {
+                (Some(c), _) if c.degenerate() => Self::Degenerate {
+                    cond_ratio: c.ratio,
+                },
+                (_, Some(check)) if check.suspect() => Self::Suspect { check: *check },
+                _ => Self::Ok,
+            },
+        }
+    }
+
+    /// Its kind.
+    pub fn kind(&self) -> StatusKind {
+        match self {
+            Self::Ok => StatusKind::Ok,
+            Self::Degenerate { .. } => StatusKind::Degenerate,
+            Self::NoOverlap { .. } => StatusKind::NoOverlap,
+            Self::Suspect { .. } => StatusKind::Suspect,
+            Self::Failed { .. } => StatusKind::Failed,
+        }
+    }
+
+    /// True for every status but [`PairStatus::Ok`]: the pair counts as a failure of its
+    /// variant.
+    pub fn is_failure(&self) -> bool {
+        *self != Self::Ok
+    }
+}
+
+/// The reason, in words with its figures (empty for [`PairStatus::Ok`]).
+impl fmt::Display for PairStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Ok => Ok(()),
+            Self::Degenerate { cond_ratio } => write!(
+                f,
+                "conditioning ratio {cond_ratio:.1e} < {DEGENERATE_RATIO}"
+            ),
+            Self::NoOverlap { overlap } => write!(
+                f,
+                "{:.0} % of the pairs within {OVERLAP_GATE_M} m (< {:.0} %)",
+                100.0 * overlap,
+                100.0 * MIN_OVERLAP
+            ),
+            Self::Suspect { check } => {
+                let (apart_m, apart_deg) = check.apart();
+                write!(
+                    f,
+                    "a pose {apart_m:.2} m and {apart_deg:.1}° away scores {:.2} on the reference's likelihood grid, the result {:.2}",
+                    check.best_score, check.result_score
+                )
+            }
+            Self::Failed { error } => write!(f, "{error}"),
+        }
+    }
+}
+
+/// What a global search of the pair (correlative scan matching, `icp_core::global`) says about
+/// a registration's result: the best score it found and the result's own score on the same
+/// likelihood grid of the reference scan (the mean likelihood of the moved source returns,
+/// in [0, 1]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GlobalCheck {
+    /// The search's best pose.
+    pub best_t_ref_src: Isometry2<f64>,
+    /// Its score.
+    pub best_score: f64,
+    /// The registration's result.
+    pub result_t_ref_src: Isometry2<f64>,
+    /// Its score.
+    pub result_score: f64,
+}
+
+/// A result is suspect when the search's best pose scores this much more than the result
+/// (absolute, in mean likelihood)…
+pub const SUSPECT_SCORE_GAIN: f64 = 0.1;
+/// …and lies farther from it than this, m…
+pub const SUSPECT_APART_M: f64 = 0.3;
+/// …or than this, degrees.
+pub const SUSPECT_APART_DEG: f64 = 3.0;
+
+impl GlobalCheck {
+    /// How far the search's best pose is from the result: translation m, rotation degrees.
+    pub fn apart(&self) -> (f64, f64) {
+        let d = self.result_t_ref_src.inverse() * self.best_t_ref_src;
+        (
+            (self.best_t_ref_src.translation.vector - self.result_t_ref_src.translation.vector)
+                .norm(),
+            d.rotation.angle().to_degrees().abs(),
+        )
+    }
+
+    /// True when a clearly better pose lies far from the result.
+    pub fn suspect(&self) -> bool {
+        let (m, deg) = self.apart();
+        self.best_score - self.result_score > SUSPECT_SCORE_GAIN
+            && (m > SUSPECT_APART_M || deg > SUSPECT_APART_DEG)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{Isometry2, Vector2};
+
+    use super::*;
+
+    #[test]
+    fn a_result_is_suspect_only_when_a_clearly_better_pose_is_far_away() {
+        let at = |x: f64, deg: f64| Isometry2::new(Vector2::new(x, 0.0), deg.to_radians());
+        let check = |best: Isometry2<f64>, best_score: f64, result_score: f64| GlobalCheck {
+            best_t_ref_src: best,
+            best_score,
+            result_t_ref_src: at(0.0, 0.0),
+            result_score,
+        };
+        assert!(check(at(0.5, 0.0), 0.6, 0.3).suspect(), "far and better");
+        assert!(
+            check(at(0.0, 10.0), 0.6, 0.3).suspect(),
+            "turned and better"
+        );
+        assert!(
+            !check(at(0.2, 2.0), 0.9, 0.3).suspect(),
+            "near: the same minimum"
+        );
+        assert!(
+            !check(at(2.0, 0.0), 0.35, 0.3).suspect(),
+            "far, not clearly better"
+        );
+        let c = check(at(0.5, 0.0), 0.6, 0.3);
+        assert_eq!(c.apart(), (0.5, 0.0));
+        let status = PairStatus::Suspect { check: c };
+        assert_eq!(status.kind(), StatusKind::Suspect);
+        assert_eq!(
+            status.to_string(),
+            "a pose 0.50 m and 0.0° away scores 0.60 on the reference's likelihood grid, the result 0.30"
+        );
+    }
+}
