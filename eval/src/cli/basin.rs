@@ -73,6 +73,9 @@ pub(crate) fn basin_cmd(args: BasinArgs) -> Result<ExitCode> {
         basin::run(&ds, &setup.variants, &options, &bar)
     })??;
     bar.finish_and_clear();
-    println!("{}", write_basin(&mut dir, &report, !args.common.no_plots)?);
+    println!(
+        "{}",
+        write_basin(&mut dir, &ds, &report, !args.common.no_plots)?
+    );
     Ok(ExitCode::SUCCESS)
 }

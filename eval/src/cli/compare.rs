@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 use clap::Args;
 use eval::measure::compare::{compare, CompareOptions};
 use eval::measure::sweep::parse_sweep;
-use eval::render::studies::{write_compare, write_sweep};
+use eval::render::studies::write_comparison;
 use eval::shard::SweepPlan;
 use eval::shard::Work;
 use eval::studies::sweep;
@@ -62,16 +62,26 @@ pub(crate) fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let setup = run.run_options()?.setup(&variants, &ds)?;
     note_estimates(&setup);
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
-    println!(
-        "{}",
-        write_compare(&mut dir, &report, &compare(&report, &options), &options)?
-    );
-    if let Some(SweepPlan { param, values }) = sweep {
-        let bar = progress(run.common.quiet, "sweep");
-        let result = in_pool(run.common.threads, || {
-            sweep::sweep(&ds, &setup, &variants, param, &values, &bar)
-        })??;
-        println!("{}", write_sweep(&mut dir, &result, !run.common.no_plots)?);
-    }
+    let swept = match sweep {
+        Some(SweepPlan { param, values }) => {
+            let bar = progress(run.common.quiet, "sweep");
+            Some(in_pool(run.common.threads, || {
+                sweep::sweep(&ds, &setup, &variants, param, &values, &bar)
+            })??)
+        }
+        None => None,
+    };
+    let rows = compare(&report, &options);
+    let plots = !run.common.no_plots;
+    let md = write_comparison(
+        &mut dir,
+        &ds,
+        &report,
+        &rows,
+        &options,
+        swept.as_ref(),
+        plots,
+    )?;
+    println!("{md}");
     Ok(ExitCode::SUCCESS)
 }

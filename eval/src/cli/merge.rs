@@ -12,7 +12,7 @@ use eval::measure::report::RunReport;
 use eval::measure::sweep::{points_of, SweepResult};
 use eval::render::markdown::table_md;
 use eval::render::outdir::OutputDir;
-use eval::render::studies::{write_basin, write_compare, write_sweep};
+use eval::render::studies::{write_basin, write_comparison};
 use eval::render::write_outputs;
 use eval::run::setup::checked_pairs;
 use eval::shard::merge::{check_shape, merge, MergedRun};
@@ -109,19 +109,30 @@ pub(crate) fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
         Work::Compare { options, sweep, .. } => {
             let report = report_of(0)?;
             write_outputs(&mut dir, &ds, &report, plots).context("writing the reports")?;
-            let rows = compare(&report, options);
-            println!("{}", write_compare(&mut dir, &report, &rows, options)?);
-            if let Some(s) = sweep {
-                let mut points = Vec::new();
-                for (i, &value) in s.values.iter().enumerate() {
-                    points.extend(points_of(value, &report_of(i + 1)?));
+            let swept = match sweep {
+                Some(s) => {
+                    let mut points = Vec::new();
+                    for (i, &value) in s.values.iter().enumerate() {
+                        points.extend(points_of(value, &report_of(i + 1)?));
+                    }
+                    Some(SweepResult {
+                        param: s.param.clone(),
+                        points,
+                    })
                 }
-                let result = SweepResult {
-                    param: s.param.clone(),
-                    points,
-                };
-                println!("{}", write_sweep(&mut dir, &result, plots)?);
-            }
+                None => None,
+            };
+            let rows = compare(&report, options);
+            let md = write_comparison(
+                &mut dir,
+                &ds,
+                &report,
+                &rows,
+                options,
+                swept.as_ref(),
+                plots,
+            )?;
+            println!("{md}");
         }
         Work::Basin(options) => {
             let MergedRun::Basin(rows) = &merged.runs[0] else {
@@ -130,7 +141,7 @@ pub(crate) fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
             let names: Vec<&str> = setups[0].variants.iter().map(|v| v.name()).collect();
             let chosen = chosen_pairs(&ds, options).len();
             let report = basin_report(&ds, &names, options, chosen, rows.clone());
-            println!("{}", write_basin(&mut dir, &report, plots)?);
+            println!("{}", write_basin(&mut dir, &ds, &report, plots)?);
         }
     }
     Ok(ExitCode::SUCCESS)

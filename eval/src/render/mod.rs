@@ -12,6 +12,7 @@ pub mod csv;
 pub mod evo;
 pub mod evo_zip;
 pub mod figures;
+pub mod html;
 pub mod json;
 pub mod markdown;
 pub mod outdir;
@@ -37,5 +38,5 @@ pub fn write_outputs(
     if plots {
         figures::run::write_all(out, ds, report)?;
     }
-    Ok(())
+    html::write(out, ds, Some(report), plots, &[])
 }

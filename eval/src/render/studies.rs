@@ -1,6 +1,9 @@
 //! The files of the studies and of `compare`: `compare.md`/`.json`, `sweep.md`/`.json`,
 //! `basin.csv`/`.md`/`.json` and `scaling.md`/`.json`, with their figures. Each writer returns
-//! the Markdown it wrote, for the command to print.
+//! the Markdown it wrote, for the command to print; those of `compare` and `basin` also write
+//! `report.html` with their results as its [`Section`]s.
+
+use datasets::Dataset;
 
 use crate::error::EvalError;
 use crate::measure::basin::BasinReport;
@@ -9,6 +12,7 @@ use crate::measure::report::RunReport;
 use crate::measure::scaling::ScalingResult;
 use crate::measure::sweep::SweepResult;
 use crate::render::figures::studies as figures;
+use crate::render::html::{self, Section};
 use crate::render::json::pretty;
 use crate::render::markdown::{basin, compare, scaling, sweep};
 use crate::render::outdir::OutputDir;
@@ -24,52 +28,74 @@ pub fn write_md_json(
     dir.write(&format!("{stem}.json"), pretty(value)?.as_bytes())
 }
 
-/// Writes `compare.md` and `compare.json` of the comparisons `rows` of `report`.
-pub fn write_compare(
+/// Writes `compare.md` and `compare.json` of the comparisons `rows` of `report`, with a
+/// sweep's files when there is one, and `report.html` with the run and them; returns their
+/// Markdown.
+#[allow(clippy::too_many_arguments)]
+pub fn write_comparison(
     dir: &mut OutputDir,
+    ds: &Dataset,
     report: &RunReport,
     rows: &[PairedComparison],
     options: &CompareOptions,
+    sweep: Option<&SweepResult>,
+    plots: bool,
 ) -> Result<String, EvalError> {
     let md = compare::compare_md(report, rows, options);
     let json = serde_json::json!({ "options": options, "comparisons": rows });
     write_md_json(dir, "compare", &md, &json)?;
-    Ok(md)
-}
-
-/// Writes `sweep.md` and `sweep.json` (and the sweep's figures when `plots`).
-pub fn write_sweep(
-    dir: &mut OutputDir,
-    result: &SweepResult,
-    plots: bool,
-) -> Result<String, EvalError> {
-    let md = sweep::sweep_md(result);
-    write_md_json(dir, "sweep", &md, result)?;
-    if plots {
-        figures::write_sweep(dir, result)?;
+    let mut sections = vec![section("Paired comparison", md, None)];
+    if let Some(result) = sweep {
+        let md = sweep::sweep_md(result);
+        write_md_json(dir, "sweep", &md, result)?;
+        let svg = plots
+            .then(|| figures::write_sweep(dir, result))
+            .transpose()?;
+        sections.push(section("Parameter sweep", md, svg));
     }
-    Ok(md)
+    html::write(dir, ds, Some(report), plots, &sections)?;
+    Ok(markdown_of(&sections))
 }
 
-/// Writes `basin.csv`, `.md` and `.json` (and its figures when `plots`).
+/// Writes `basin.csv`, `.md` and `.json`, its figures when `plots`, and `report.html`;
+/// returns its Markdown.
 pub fn write_basin(
     dir: &mut OutputDir,
+    ds: &Dataset,
     report: &BasinReport,
     plots: bool,
 ) -> Result<String, EvalError> {
     dir.write("basin.csv", &crate::render::csv::basin_csv(report)?)?;
     let md = basin::basin_md(report);
     write_md_json(dir, "basin", &md, report)?;
-    if plots {
-        figures::write_basin(dir, report)?;
-    }
-    Ok(md)
+    let svg = plots
+        .then(|| figures::write_basin(dir, report))
+        .transpose()?;
+    let sections = [section("Convergence basin", md, svg)];
+    html::write(dir, ds, None, plots, &sections)?;
+    Ok(markdown_of(&sections))
 }
 
-/// Writes `scaling.md`, `.json` and its figures.
+/// Writes `scaling.md`, `.json` and its figures; returns its Markdown.
 pub fn write_scaling(dir: &mut OutputDir, result: &ScalingResult) -> Result<String, EvalError> {
     let md = scaling::scaling_md(result);
     write_md_json(dir, "scaling", &md, result)?;
     figures::write_scaling(dir, result)?;
     Ok(md)
+}
+
+fn section(title: &str, markdown: String, svg: Option<(String, String)>) -> Section {
+    Section {
+        title: title.to_owned(),
+        markdown,
+        svgs: svg.into_iter().collect(),
+    }
+}
+
+fn markdown_of(sections: &[Section]) -> String {
+    sections
+        .iter()
+        .map(|s| s.markdown.as_str())
+        .collect::<Vec<_>>()
+        .join("\n")
 }

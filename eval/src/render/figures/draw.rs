@@ -83,20 +83,22 @@ impl Sink for Files<'_> {
         fig: &impl Figure,
         svg_fig: &impl Figure,
     ) -> Result<(), EvalError> {
-        let png = self.0.file(&format!("{stem}.png"))?;
-        let tmp = tmp_path(&png).with_extension("tmp.png");
-        {
-            let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
-            fig.draw(&root).map_err(|w| plot_error(stem, w))?;
-            root.present().map_err(|e| plot_error(stem, e))?;
-        }
-        std::fs::rename(&tmp, &png).map_err(|source| EvalError::Io {
-            path: png.clone(),
-            source,
-        })?;
+        write_png(self.0, stem, fig)?;
         self.0
             .write(&format!("{stem}.svg"), svg_text(stem, svg_fig)?.as_bytes())
     }
+}
+
+/// Renders `fig` to `<stem>.png` in `out`, atomically.
+fn write_png(out: &mut OutputDir, stem: &str, fig: &impl Figure) -> Result<(), EvalError> {
+    let png = out.file(&format!("{stem}.png"))?;
+    let tmp = tmp_path(&png).with_extension("tmp.png");
+    {
+        let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
+        fig.draw(&root).map_err(|w| plot_error(stem, w))?;
+        root.present().map_err(|e| plot_error(stem, e))?;
+    }
+    std::fs::rename(&tmp, &png).map_err(|source| EvalError::Io { path: png, source })
 }
 
 /// Holds each figure's SVG text, in order: `(stem, svg)`.
@@ -133,9 +135,17 @@ fn svg_text(stem: &str, fig: &impl Figure) -> Result<String, EvalError> {
     Ok(svg)
 }
 
-/// Renders `fig` to `<stem>.png` and `<stem>.svg` in `out`, atomically.
-pub(crate) fn save(out: &mut OutputDir, stem: &str, fig: &impl Figure) -> Result<(), EvalError> {
-    Files(out).figure(stem, fig, fig)
+/// Renders `fig` to `<stem>.png` and `<stem>.svg` in `out`, atomically, and returns
+/// `(stem, svg)` for `report.html`.
+pub(crate) fn save(
+    out: &mut OutputDir,
+    stem: &str,
+    fig: &impl Figure,
+) -> Result<(String, String), EvalError> {
+    write_png(out, stem, fig)?;
+    let svg = svg_text(stem, fig)?;
+    out.write(&format!("{stem}.svg"), svg.as_bytes())?;
+    Ok((stem.to_owned(), svg))
 }
 
 /// Symmetric axis limit covering `values` (at least `floor`).

@@ -118,11 +118,11 @@ impl Figure for SweepFigure<'_> {
     }
 }
 
-/// Draws `sweep.png` and `sweep.svg`.
+/// Draws `sweep.png` and `sweep.svg`; returns `(stem, svg)` for `report.html`.
 pub fn write_sweep(
     out: &mut OutputDir,
     result: &crate::measure::sweep::SweepResult,
-) -> Result<(), EvalError> {
+) -> Result<(String, String), EvalError> {
     save(out, "sweep", &SweepFigure { result })
 }
 
@@ -216,11 +216,11 @@ impl Figure for BasinFigure<'_> {
     }
 }
 
-/// Draws `basin.png` and `basin.svg`.
+/// Draws `basin.png` and `basin.svg`; returns `(stem, svg)` for `report.html`.
 pub fn write_basin(
     out: &mut OutputDir,
     report: &crate::measure::basin::BasinReport,
-) -> Result<(), EvalError> {
+) -> Result<(String, String), EvalError> {
     save(out, "basin", &BasinFigure { report })
 }
 
@@ -332,10 +332,10 @@ impl Figure for ScalingFigure<'_> {
     }
 }
 
-/// Draws `scaling.png` and `scaling.svg`.
+/// Draws `scaling.png` and `scaling.svg`; returns `(stem, svg)` for `report.html`.
 pub fn write_scaling(
     out: &mut OutputDir,
     result: &crate::measure::scaling::ScalingResult,
-) -> Result<(), EvalError> {
+) -> Result<(String, String), EvalError> {
     save(out, "scaling", &ScalingFigure { result })
 }
