@@ -8,9 +8,9 @@
 use nalgebra::{Isometry2, Point2};
 
 use crate::error::ScanRole;
-use crate::icp::check_init;
 use crate::matching::{KdTree, Matcher};
 use crate::quality::{conditioning, overlap};
+use crate::registration::check_init;
 use crate::scan::{check_geometry, MIN_POINTS};
 use crate::termination::StopReason;
 use crate::{IcpError, Prepared, Registration};

@@ -1,21 +1,22 @@
 //! The ICP loop (Naus & Marchel 2019, Algorithm 1 and eqs. 14, 21, 22) as a chain of stages.
 
-use nalgebra::{Isometry2, Point2};
+use nalgebra::Isometry2;
 
 use crate::error::{ConfigError, ScanRole};
-use crate::matching::{Correspondence, LastIndex, Matcher};
+use crate::matching::{Correspondence, Matcher};
 use crate::metric::Metric;
 use crate::minimize::Minimizer;
 use crate::pairs::PairSet;
 use crate::quality::{conditioning, overlap};
-use crate::registration::{Prepared, Registrar, Registration};
+use crate::registration::{check_init, Prepared, Registrar, Registration};
 use crate::robust::RobustKernel;
-use crate::scan::{check_geometry, Return, MIN_POINTS};
+use crate::scan::{check_geometry, MIN_POINTS};
 use crate::select::Selection;
-use crate::surface::{SurfaceParams, SurfacePoint};
+use crate::spec::VariantSpec;
+use crate::surface::SurfaceParams;
 use crate::termination::{StopReason, Termination, CYCLE_MEMORY};
-use crate::variants::VariantSpec;
 use crate::weighting::PairWeighting;
+use crate::workspace::Workspace;
 use crate::{IcpError, SensorModel};
 
 /// ICP as a chain of stages (Algorithm 1): selection, matching, the error metric, pair
@@ -89,47 +90,6 @@ impl Icp {
         self.source = None;
         self
     }
-}
-
-/// The buffers of a registration. Passing one workspace to successive registrations (one per
-/// thread) reuses them: after the first, a registration allocates only for the overlap check
-/// and, when its reference points or matcher differ from the previous registration's, for a
-/// new nearest-neighbour index (the variants of one pair share one, and their first matching
-/// when they start alike). What it holds between calls never changes a result.
-#[derive(Debug, Default)]
-pub struct Workspace {
-    src_idx: Vec<usize>,
-    ref_idx: Vec<usize>,
-    src: Vec<Return>,
-    dst: Vec<Return>,
-    src_pts: Vec<Point2<f64>>,
-    dst_pts: Vec<Point2<f64>>,
-    src_surfaces: Vec<Option<SurfacePoint>>,
-    dst_surfaces: Vec<Option<SurfacePoint>>,
-    moved: Vec<Point2<f64>>,
-    pairs: Vec<Correspondence>,
-    dists: Vec<f64>,
-    residuals: Vec<f64>,
-    weights: Vec<f64>,
-    scratch: Vec<f64>,
-    index: LastIndex,
-}
-
-/// `Err` unless `init` is finite.
-pub(crate) fn check_init(init: &Isometry2<f64>) -> Result<(), IcpError> {
-    for (what, value) in [
-        ("init.translation", init.translation.vector.norm()),
-        ("init.rotation", init.rotation.angle()),
-    ] {
-        if !value.is_finite() {
-            return Err(IcpError::NonFinite {
-                what,
-                index: 0,
-                value,
-            });
-        }
-    }
-    Ok(())
 }
 
 /// A fingerprint of a matching (FNV-1a over the matched reference indices), never 0.

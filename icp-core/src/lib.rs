@@ -64,11 +64,13 @@ pub mod robust;
 pub mod scan;
 pub mod select;
 pub mod sensor;
+pub mod spec;
 pub mod static_str;
 pub mod surface;
 pub mod termination;
 pub mod variants;
 pub mod weighting;
+pub mod workspace;
 
 pub use assess::assess;
 pub use covariance::Covariance;
@@ -78,7 +80,7 @@ pub use error::{ConfigError, IcpError};
 #[cfg(doctest)]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;
-pub use icp::{Icp, Workspace};
+pub use icp::Icp;
 pub use motion::{BearingSense, MovementParams, MovementSigmas};
 pub use quality::Conditioning;
 pub use registration::{Prepared, Registrar, Registration};
@@ -86,3 +88,4 @@ pub use scan::Scan;
 pub use sensor::SensorModel;
 pub use surface::{SurfaceParams, Surfaces};
 pub use termination::{StopReason, Termination};
+pub use workspace::Workspace;

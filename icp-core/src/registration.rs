@@ -5,11 +5,11 @@ use nalgebra::Isometry2;
 
 use crate::covariance::Covariance;
 use crate::error::ScanRole;
-use crate::icp::Workspace;
 use crate::quality::{Conditioning, MIN_OVERLAP};
+use crate::spec::VariantSpec;
 use crate::surface::{SurfaceParams, Surfaces};
 use crate::termination::StopReason;
-use crate::variants::VariantSpec;
+use crate::workspace::Workspace;
 use crate::{IcpError, Scan};
 
 /// The outcome of one registration of a source scan onto a reference scan.
@@ -138,4 +138,21 @@ pub trait Registrar: Send + Sync {
             init,
         )
     }
+}
+
+/// `Err` unless `init` is finite.
+pub(crate) fn check_init(init: &Isometry2<f64>) -> Result<(), IcpError> {
+    for (what, value) in [
+        ("init.translation", init.translation.vector.norm()),
+        ("init.rotation", init.rotation.angle()),
+    ] {
+        if !value.is_finite() {
+            return Err(IcpError::NonFinite {
+                what,
+                index: 0,
+                value,
+            });
+        }
+    }
+    Ok(())
 }

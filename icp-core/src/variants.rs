@@ -16,7 +16,6 @@
 //! | GICP | plane-to-plane, surface covariances | uniform | Huber | Segal et al. 2009 |
 //! | HD_GICP | plane-to-plane, surface + sensor covariances | uniform | Huber | Segal et al. 2009 with eq. 8 |
 
-use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
 use crate::error::ConfigError;
@@ -27,83 +26,10 @@ use crate::minimize::MINIMIZERS;
 use crate::registry::{param_docs, BuildContext, FamilyDoc, ParamError, SectionDoc, StageSpec};
 use crate::robust::ROBUST_KERNELS;
 use crate::select::SELECTIONS;
+pub use crate::spec::{check_name, VariantSpec};
 use crate::surface::SurfaceParams;
 use crate::weighting::WEIGHTINGS;
 use crate::{IcpError, SensorModel, Termination};
-
-/// One registration method as data: what a configuration file holds. A stage missing from a
-/// file takes the paper's (equal-count selection, grid matching, point-to-point), and the
-/// minimiser the metric's own (weighted Kabsch for point-to-point, Gauss-Newton otherwise).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct VariantSpec {
-    /// Name in reports, e.g. `HD_ICP`.
-    pub name: String,
-    /// Where the method comes from (citation, Table 1 row), free text.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub source: Option<String>,
-    /// Point selection (Alg. 1 step 1).
-    #[serde(default = "default_selection")]
-    pub selection: StageSpec,
-    /// Nearest-neighbour matcher (Alg. 1 step 2).
-    #[serde(default = "default_matcher")]
-    pub matcher: StageSpec,
-    /// How the surface (normal, covariance) behind each return is estimated.
-    #[serde(default)]
-    pub surfaces: SurfaceParams,
-    /// The error metric of eq. 14.
-    #[serde(default = "default_metric")]
-    pub metric: StageSpec,
-    /// Pair weighting (Alg. 1 step 3).
-    pub weighting: StageSpec,
-    /// Robust rejection (Alg. 1 step 4).
-    pub robust: StageSpec,
-    /// Minimisation (Alg. 1 step 5); `None`: the metric's own.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub minimizer: Option<StageSpec>,
-    /// Error model of the returns, for the weights and the metrics that use it.
-    #[serde(default)]
-    pub sensor: SensorModel,
-    /// Convergence rule (Alg. 1 step 6).
-    #[serde(default)]
-    pub termination: Termination,
-}
-
-/// `Ok` when `name` can name a variant's files (`trajectory_<name>.tum`): letters, digits and
-/// `_ - + .`, not empty, not starting with a dot.
-pub fn check_name(name: &str) -> Result<(), ConfigError> {
-    let bad = |reason| {
-        Err(ConfigError::Name {
-            name: name.to_owned(),
-            reason,
-        })
-    };
-    if name.is_empty() {
-        return bad("must not be empty");
-    }
-    if name.starts_with('.') {
-        return bad("must not start with a dot");
-    }
-    if !name
-        .chars()
-        .all(|c| c.is_ascii_alphanumeric() || "_-+.".contains(c))
-    {
-        return bad("only letters, digits and _ - + . (it names the run's files)");
-    }
-    Ok(())
-}
-
-fn default_selection() -> StageSpec {
-    StageSpec::kind("equal_count")
-}
-
-fn default_matcher() -> StageSpec {
-    StageSpec::kind("grid")
-}
-
-fn default_metric() -> StageSpec {
-    StageSpec::kind("point_to_point")
-}
 
 impl VariantSpec {
     /// Builds the chain this spec describes, checking every stage's kind and parameters, the
