@@ -23,12 +23,14 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::{Dataset, Pose2, Provenance, ReferenceKind, ReferencePose};
 use crate::DatasetError;
 
+pub mod rough;
 mod scanner;
 mod track;
 mod world;
 
+pub use rough::Rough;
 pub use scanner::{Revolution, Scanner};
-pub use world::Segment;
+pub use world::{Segment, Surface};
 
 use track::Track;
 use world::build_world;
@@ -126,6 +128,10 @@ pub struct Scenario {
     pub scanner: ScannerConfig,
     /// Seed of the world's details and of the noise.
     pub seed: u64,
+    /// The error sources of a real vessel and scanner beyond the sensor model ([`rough`]);
+    /// `None`: the paper's harbour.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rough: Option<Rough>,
 }
 
 impl Scenario {
@@ -154,6 +160,26 @@ impl Scenario {
             ],
             scanner: ScannerConfig::default(),
             seed: 2019,
+            rough: None,
+        }
+    }
+
+    /// The paper's run in a rough harbour ([`rough`]): the same track, basin and scanner, with
+    /// the waves' motion (in place of the paper scenario's 0.6° yaw wobble), the tilted scan
+    /// plane, grazing-incidence noise, mixed pixels, a heavy-tailed share of range errors,
+    /// moving boats and motion distortion. The dataset states the nominal (Sweep) model.
+    pub fn rough() -> Self {
+        let paper = Self::paper();
+        Self {
+            name: "rough".into(),
+            yaw_wobble_deg: 0.0,
+            scanner: ScannerConfig {
+                motion_distortion: true,
+                ..paper.scanner
+            },
+            seed: 2022,
+            rough: Some(Rough::harbour()),
+            ..paper
         }
     }
 
@@ -178,11 +204,15 @@ impl Scenario {
         }
     }
 
-    /// A scenario by name: `paper` or `marina-like`.
+    /// The scenarios' names, for messages.
+    pub const NAMES: &'static str = "paper, marina-like or rough";
+
+    /// A scenario by name: `paper`, `marina-like` or `rough`.
     pub fn by_name(name: &str) -> Option<Self> {
         match name {
             "paper" => Some(Self::paper()),
             "marina-like" | "marina_like" => Some(Self::marina_like()),
+            "rough" => Some(Self::rough()),
             _ => None,
         }
     }
@@ -255,6 +285,13 @@ impl Scenario {
                 reason: "a turn must end after it starts",
             });
         }
+        if let Some((name, value, reason)) = self.rough.as_ref().and_then(Rough::invalid) {
+            return Err(DatasetError::InvalidParameter {
+                name,
+                value,
+                reason,
+            });
+        }
         s.sensor.validate().map_err(|e| DatasetError::BadValue {
             path: "<scenario>".into(),
             what: e.to_string(),
@@ -281,6 +318,9 @@ impl Scenario {
     }
 }
 
+/// The ChaCha8 stream of the rough harbour's wave phases.
+const SEA_STREAM: u64 = 22;
+
 /// Generates the scenario's dataset.
 pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     scenario.validate()?;
@@ -289,14 +329,38 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     let track = Track::new(scenario, duration_s);
     let mut event_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
     let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x005e_ed0f_5e45);
-    let world = build_world(&track, duration_s, &mut event_rng);
+    let (world, surfaces) = build_world(&track, duration_s, &mut event_rng);
     let scanner = Scanner::new(sc, &world);
     let pose_at = |t: f64| track.pose_at(t);
+    // The rough harbour: the sea's phases from their own stream of the seed, so the paper's
+    // draws are untouched.
+    let sea = scenario.rough.as_ref().map(|r| {
+        let mut rng = ChaCha8Rng::seed_from_u64(scenario.seed);
+        rng.set_stream(SEA_STREAM);
+        r.sea.with_phases(&mut rng)
+    });
+    let rough = scenario.rough.as_ref().zip(sea.as_ref()).map(|(r, sea)| {
+        let motion = rough::Motion {
+            track: &pose_at,
+            sea,
+            duration_s,
+        };
+        (rough::RoughScanner::new(sc, r, &world, &surfaces), motion)
+    });
     let mut scans = Vec::with_capacity(scenario.n_scans);
     let mut reference = Vec::with_capacity(scenario.n_scans);
     for k in 0..scenario.n_scans {
         let t_k = k as f64 * scenario.dt_s;
-        let rev = scanner.scan(&pose_at, t_k, &mut noise_rng, &mut event_rng);
+        let (rev, pose_k) = match &rough {
+            Some((rough_scanner, motion)) => (
+                rough_scanner.scan(motion, t_k, &mut noise_rng, &mut event_rng),
+                motion.pose(t_k),
+            ),
+            None => (
+                scanner.scan(&pose_at, t_k, &mut noise_rng, &mut event_rng),
+                track.pose_at(t_k),
+            ),
+        };
         let scan =
             Scan::from_polar_with_true_normals(&rev.ranges_m, &rev.bearings_rad, &rev.true_normals)
                 .and_then(|s| s.with_timestamp(t_k))
@@ -306,7 +370,6 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
                     source,
                 })?;
         scans.push(scan);
-        let pose_k = track.pose_at(t_k);
         let yaw = pose_k.rotation.angle();
         reference.push(ReferencePose {
             x_m: pose_k.translation.x,
@@ -319,8 +382,18 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         provenance: Provenance {
             name: format!("synthetic:{}", scenario.name),
             description: format!(
-                "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}",
-                scenario.name, scenario.n_scans, scenario.dt_s, scenario.speed_mps, scenario.seed
+                "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}{}",
+                scenario.name,
+                scenario.n_scans,
+                scenario.dt_s,
+                scenario.speed_mps,
+                scenario.seed,
+                if scenario.rough.is_some() {
+                    "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, moving boats \
+                     (the dataset's sensor model is the nominal one)"
+                } else {
+                    ""
+                }
             ),
             files: Vec::new(),
         },

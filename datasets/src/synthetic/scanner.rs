@@ -137,7 +137,7 @@ mod tests {
         let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + 0.2;
         let track = Track::new(&scenario, duration_s);
         let mut event_rng = ChaCha8Rng::seed_from_u64(5);
-        let world = build_world(&track, duration_s, &mut event_rng);
+        let (world, _) = build_world(&track, duration_s, &mut event_rng);
         let mut noise_rng = ChaCha8Rng::seed_from_u64(6);
         let pose_at = |t: f64| track.pose_at(t);
         for motion_distortion in [false, true] {

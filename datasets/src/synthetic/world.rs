@@ -50,8 +50,26 @@ impl Segment {
     }
 }
 
-/// Builds the basin around the track.
-pub(super) fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) -> Vec<Segment> {
+/// What a segment of the basin is part of (in the rough harbour each has its own height above
+/// the water).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Surface {
+    /// A quay wall along the basin.
+    Quay,
+    /// A wall closing the basin at either end.
+    EndWall,
+    /// A finger pier off the starboard quay.
+    Pier,
+    /// The side of a moored hull.
+    Hull,
+}
+
+/// Builds the basin around the track: its segments and, one per segment, what each is part of.
+pub(super) fn build_world(
+    track: &Track,
+    duration_s: f64,
+    rng: &mut ChaCha8Rng,
+) -> (Vec<Segment>, Vec<Surface>) {
     const PORT_QUAY_M: f64 = 14.0;
     const STARBOARD_QUAY_M: f64 = 11.0;
     const SAMPLE_M: f64 = 2.0;
@@ -78,9 +96,11 @@ pub(super) fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) 
     let port: Vec<Point2<f64>> = centre.iter().map(|c| left(c, PORT_QUAY_M)).collect();
     let starboard: Vec<Point2<f64>> = centre.iter().map(|c| left(c, -STARBOARD_QUAY_M)).collect();
     let mut segs = Vec::new();
+    let mut kinds = Vec::new();
     for quay in [&port, &starboard] {
         segs.extend(quay.windows(2).map(|w| Segment { a: w[0], b: w[1] }));
     }
+    kinds.resize(segs.len(), Surface::Quay);
     // End walls close the basin.
     segs.push(Segment {
         a: port[0],
@@ -90,6 +110,7 @@ pub(super) fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) 
         a: *port.last().expect("non-empty"),
         b: *starboard.last().expect("non-empty"),
     });
+    kinds.resize(segs.len(), Surface::EndWall);
     // Finger piers off the starboard quay, moored hulls along the port quay.
     let mut along = 0.0;
     let mut next_pier = 10.0;
@@ -103,6 +124,7 @@ pub(super) fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) 
                 a: p - n * STARBOARD_QUAY_M,
                 b: p - n * (STARBOARD_QUAY_M - 5.0),
             });
+            kinds.push(Surface::Pier);
             next_pier += 24.0 + rng.random_range(-4.0..4.0);
         }
         if along >= next_hull {
@@ -118,11 +140,12 @@ pub(super) fn build_world(track: &Track, duration_s: f64, rng: &mut ChaCha8Rng) 
                 ];
                 segs.extend(c.windows(2).map(|w| Segment { a: w[0], b: w[1] }));
                 segs.push(Segment { a: c[4], b: c[0] });
+                kinds.resize(segs.len(), Surface::Hull);
             }
             next_hull += 5.0 + rng.random_range(0.0..6.0);
         }
     }
-    segs
+    (segs, kinds)
 }
 
 /// The segments near one revolution, binned by the directions in which they can be seen from
@@ -221,16 +244,19 @@ impl<'w> Sectors<'w> {
     /// The nearest hit of the ray `o + t u` (`|u| = 1`, `o` within the spread): its distance
     /// `t`, metres, and the segment hit (of several at exactly that distance, the first).
     pub(super) fn cast(&self, o: &Point2<f64>, u: &Vector2<f64>) -> Option<(f64, &'w Segment)> {
+        self.cast_index(o, u).map(|(t, i)| (t, self.segments[i]))
+    }
+
+    /// [`Sectors::cast`] naming the segment by its position in the list the index was built
+    /// from.
+    pub(super) fn cast_index(&self, o: &Point2<f64>, u: &Vector2<f64>) -> Option<(f64, usize)> {
         let k = Self::sector(u.y.atan2(u.x));
         self.members[self.start[k] as usize..self.start[k + 1] as usize]
             .iter()
-            .filter_map(|&i| {
-                let segment = self.segments[i as usize];
-                segment.hit(o, u).map(|t| (t, segment))
-            })
-            .fold(None, |nearest, (t, segment)| match nearest {
+            .filter_map(|&i| self.segments[i as usize].hit(o, u).map(|t| (t, i as usize)))
+            .fold(None, |nearest, (t, i)| match nearest {
                 Some((best, _)) if best <= t => nearest,
-                _ => Some((t, segment)),
+                _ => Some((t, i)),
             })
     }
 }
