@@ -1,5 +1,6 @@
 //! Generating the synthetic harbour: the ray casting of each revolution (its sector index
-//! against testing every near segment), on 100 scans of the paper scenario.
+//! against testing every near segment), on 100 scans of the paper scenario, and 100 of the rough
+//! harbour.
 //!
 //!   cargo bench -p datasets --bench generate
 
@@ -24,6 +25,14 @@ fn generation(c: &mut Criterion) {
             b.iter(|| generate(&scenario).expect("valid scenario"))
         });
     }
+    // The rough harbour: waves, tilt, boats and the other sources, with motion distortion.
+    let rough = Scenario {
+        n_scans: 100,
+        ..Scenario::rough()
+    };
+    group.bench_function("rough_100_scans", |b| {
+        b.iter(|| generate(&rough).expect("valid scenario"))
+    });
     group.finish();
 }
 

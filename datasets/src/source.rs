@@ -86,7 +86,7 @@ pub static KINDS: &[Kind] = &[
     },
     Kind {
         name: "synthetic",
-        target: Target::Optional("paper|marina-like"),
+        target: Target::Optional("paper|marina-like|rough"),
         summary: "the simulated harbour with exact ground truth (default scenario: paper)",
         options: &[
             OptionDoc {
@@ -488,7 +488,7 @@ fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
         kind: "synthetic",
         option: "scenario",
         value: name.to_owned(),
-        expected: "expected paper or marina-like".into(),
+        expected: format!("expected {}", Scenario::NAMES),
     })?;
     if let Some(seed) = s.get("seed", "a non-negative integer")? {
         scenario.seed = seed;

@@ -10,7 +10,8 @@ use icp_core::SensorModel;
 
 #[derive(Args)]
 pub(crate) struct SynthArgs {
-    /// Scenario: paper (865 scans every 0.2 s) or marina-like (177 scans every 1 s).
+    /// Scenario: paper (865 scans every 0.2 s), marina-like (177 scans every 1 s) or rough
+    /// (the paper's run with a real vessel's and scanner's error sources).
     #[arg(long, default_value = "paper")]
     pub(crate) scenario: String,
     /// Number of scans (default: the scenario's).
@@ -46,14 +47,15 @@ pub(crate) struct SynthArgs {
 pub(crate) fn synth(args: SynthArgs) -> Result<ExitCode> {
     let mut scenario = Scenario::by_name(&args.scenario).with_context(|| {
         format!(
-            "unknown scenario {:?}: expected paper or marina-like",
-            args.scenario
+            "unknown scenario {:?}: expected {}",
+            args.scenario,
+            Scenario::NAMES
         )
     })?;
     scenario.scanner.sensor = SensorModel::sweep_with_sigma_alpha_deg(args.sigma_alpha_deg)
         .context("--sigma-alpha-deg")?;
     scenario.scanner.noise = !args.no_noise;
-    scenario.scanner.motion_distortion = args.motion_distortion;
+    scenario.scanner.motion_distortion |= args.motion_distortion;
     if let Some(n) = args.scans {
         scenario.n_scans = n;
     }
