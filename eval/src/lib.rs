@@ -26,6 +26,7 @@ pub mod merge;
 pub mod outcome;
 pub mod outdir;
 pub mod output;
+mod pair_search;
 pub mod plots;
 pub mod published;
 pub mod reference;

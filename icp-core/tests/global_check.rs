@@ -104,8 +104,9 @@ proptest! {
         let full = matcher
             .search(&mut GlobalWorkspace::default(), source.prepared(), Isometry2::identity())
             .unwrap();
+        let mut workspace = GlobalWorkspace::default();
         let mut prepared = matcher
-            .prepare(GlobalWorkspace::default(), source.prepared(), Isometry2::identity())
+            .prepare(&mut workspace, source.prepared(), Isometry2::identity())
             .unwrap();
         for &(x, y, deg, kind) in &results {
             // Near the truth, anywhere, or at the search's best pose itself.

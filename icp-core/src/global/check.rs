@@ -19,11 +19,11 @@ use super::{GlobalMatcher, GlobalWorkspace};
 
 /// A source scan made ready for searches on one [`GlobalMatcher`] (see
 /// [`GlobalMatcher::prepare`]), with what its searches have proven so far.
-#[derive(Clone, Debug)]
-pub struct SourceSearch {
+#[derive(Debug)]
+pub struct SourceSearch<'w> {
     /// The source's points and weights, the rotation candidates and the sorted top-level
     /// nodes, with the descents' buffers.
-    pub(super) workspace: GlobalWorkspace,
+    pub(super) workspace: &'w mut GlobalWorkspace,
     /// The window's centre.
     pub(super) centre: Isometry2<f64>,
     /// Sum of the source's weights.
@@ -36,15 +36,10 @@ pub struct SourceSearch {
     pub(super) cleared: Option<u64>,
 }
 
-impl SourceSearch {
+impl SourceSearch<'_> {
     /// Grid cells read so far for this source.
     pub fn grid_lookups(&self) -> u64 {
         self.lookups
-    }
-
-    /// The buffers, for the next source.
-    pub fn into_workspace(self) -> GlobalWorkspace {
-        self.workspace
     }
 }
 
@@ -78,9 +73,13 @@ impl GlobalMatcher {
     /// Exact: scores are a whole-number sum over a known total, so the bar is the highest sum
     /// that does not clear (found by bisection on `clears` itself), and the branch and bound
     /// searches only above it.
-    pub fn best_above(&self, prepared: &mut SourceSearch, clears: impl Fn(f64) -> bool) -> Above {
+    pub fn best_above(
+        &self,
+        prepared: &mut SourceSearch<'_>,
+        clears: impl Fn(f64) -> bool,
+    ) -> Above {
         let total = prepared.total_weight;
-        let answer = |prepared: &SourceSearch, best: &Best| Above::Best {
+        let answer = |prepared: &SourceSearch<'_>, best: &Best| Above::Best {
             t_ref_src: self.pose_of(prepared, best),
             score: mean_of(best.sum, total),
         };

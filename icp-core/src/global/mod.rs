@@ -392,25 +392,23 @@ impl GlobalMatcher {
         source: Prepared<'_>,
         centre: Isometry2<f64>,
     ) -> Result<GlobalGuess, IcpError> {
-        let mut prepared = self.prepare(std::mem::take(workspace), source, centre)?;
-        let guess = self.best(&mut prepared);
-        *workspace = prepared.workspace;
-        Ok(guess)
+        let mut prepared = self.prepare(workspace, source, centre)?;
+        Ok(self.best(&mut prepared))
     }
 
-    /// `source` made ready for searches within the window around `centre` in the buffers of
-    /// `workspace`: its points and weights, the rotation candidates and the sorted top-level
+    /// `source` made ready for searches within the window around `centre`, in the buffers of
+    /// `workspace` (held until it is dropped): its points and weights, the rotation candidates and the sorted top-level
     /// nodes of the branch and bound, shared by [`Self::best`] and [`Self::best_above`].
     ///
     /// `Err` when `centre` is not finite, the source has no return, (histogram mode) its
     /// surface estimates are not one per return, or the rotation candidates would exceed
     /// [`MAX_ROTATIONS`].
-    pub fn prepare(
+    pub fn prepare<'w>(
         &self,
-        mut workspace: GlobalWorkspace,
+        workspace: &'w mut GlobalWorkspace,
         source: Prepared<'_>,
         centre: Isometry2<f64>,
-    ) -> Result<SourceSearch, IcpError> {
+    ) -> Result<SourceSearch<'w>, IcpError> {
         let centre_angle = centre.rotation.angle();
         let t = centre.translation.vector;
         for value in [t.x, t.y, centre_angle] {
@@ -427,7 +425,7 @@ impl GlobalMatcher {
             weights,
             rotations,
             ..
-        } = &mut workspace;
+        } = workspace;
         points.clear();
         points.extend(source.scan.returns().iter().map(|r| r.point));
         weights.clear();
@@ -461,7 +459,7 @@ impl GlobalMatcher {
     }
 
     /// The best pose of `prepared` and its runner-up (the search's whole answer).
-    pub fn best(&self, prepared: &mut SourceSearch) -> GlobalGuess {
+    pub fn best(&self, prepared: &mut SourceSearch<'_>) -> GlobalGuess {
         let known = prepared.best;
         let (search, buffers) = self.split(prepared);
         let best = known.unwrap_or_else(|| search.above(buffers, 0));
@@ -489,13 +487,13 @@ impl GlobalMatcher {
     }
 
     /// The search over `prepared`'s buffers, and the buffers of its descents.
-    fn split<'a>(&'a self, prepared: &'a mut SourceSearch) -> (Search<'a>, &'a mut Buffers) {
+    fn split<'a>(&'a self, prepared: &'a mut SourceSearch<'_>) -> (Search<'a>, &'a mut Buffers) {
         let GlobalWorkspace {
             points,
             weights,
             rotations,
             buffers,
-        } = &mut prepared.workspace;
+        } = &mut *prepared.workspace;
         let search = Search {
             grid: &self.grid,
             points,
@@ -508,7 +506,7 @@ impl GlobalMatcher {
     }
 
     /// The pose of a search's `best` (the centre when no pose scores above 0).
-    fn pose_of(&self, prepared: &SourceSearch, best: &Best) -> Isometry2<f64> {
+    fn pose_of(&self, prepared: &SourceSearch<'_>, best: &Best) -> Isometry2<f64> {
         match best.rotation {
             Some(r) => {
                 let offset = Vector2::new(f64::from(best.offset[0]), f64::from(best.offset[1]));
