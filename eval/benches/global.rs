@@ -6,6 +6,12 @@
 //! aces the grid and the search apart. On aces the default search is also timed pair by pair
 //! (`global/aces-pairs/<k>`, `k` the source scan), for the median over pairs.
 //!
+//! The check of a result (`global/<data>-check`): HD_GICP's result of each pair (registered
+//! beforehand from the identity) checked as `icp-eval run` checks it, the whole cost of a pair
+//! (the grid, the source's preparation, the search above the result's bar: `check`) against the
+//! check by the full search it replaces (`search`), and the check alone on a prepared source
+//! (`check-only`).
+//!
 //! The aces log is looked for as `$ICP_DATA_DIR/carmen/aces.log.gz` or
 //! `$ICP_DATA_DIR/aces.log.gz` (a relative `ICP_DATA_DIR` from the workspace root), then in
 //! `../shared/datasets/carmen/` beside the workspace; without it the aces benchmarks are
@@ -19,8 +25,10 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use datasets::carmen::{load, CarmenOptions};
 use datasets::synthetic::{generate, Scenario};
-use icp_core::global::{GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode};
-use icp_core::{Prepared, Scan, SurfaceParams, Surfaces};
+use eval::run::status::clearly_better;
+use icp_core::global::{score_at, GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode};
+use icp_core::variants::builtin;
+use icp_core::{Prepared, Registrar, Scan, SurfaceParams, Surfaces, Workspace};
 use nalgebra::Isometry2;
 
 /// Pairs per iteration.
@@ -98,6 +106,76 @@ fn modes(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
     group.finish();
 }
 
+/// HD_GICP's result of each pair, registered from the identity.
+fn results(pairs: &[(Owned, Owned)]) -> Vec<Isometry2<f64>> {
+    let reg = builtin("HD_GICP")
+        .expect("built in")
+        .build()
+        .expect("valid");
+    let mut workspace = Workspace::default();
+    pairs
+        .iter()
+        .map(|(source, reference)| {
+            reg.register_prepared(
+                &mut workspace,
+                source.prepared(),
+                reference.prepared(),
+                Isometry2::identity(),
+            )
+            .expect("a registration")
+            .t_ref_src
+        })
+        .collect()
+}
+
+/// The check of HD_GICP's results on `pairs` (see the module doc).
+fn check(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
+    let results = results(pairs);
+    let params = GlobalParams::default();
+    let mut group = c.benchmark_group(format!("global/{name}-check"));
+    group.throughput(Throughput::Elements(pairs.len() as u64));
+    let mut workspace = GlobalWorkspace::default();
+    group.bench_function("check", |b| {
+        b.iter(|| {
+            for ((source, reference), result) in pairs.iter().zip(&results) {
+                let matcher = GlobalMatcher::new(reference.prepared(), &params).expect("a grid");
+                let mut prepared = matcher
+                    .prepare(&mut workspace, source.prepared(), Isometry2::identity())
+                    .expect("a source");
+                let result_score = score_at(matcher.grid(), &source.scan, result);
+                matcher.best_above(&mut prepared, |s| clearly_better(s, result_score));
+            }
+        })
+    });
+    group.bench_function("search", |b| {
+        b.iter(|| {
+            for ((source, reference), result) in pairs.iter().zip(&results) {
+                let matcher = GlobalMatcher::new(reference.prepared(), &params).expect("a grid");
+                matcher
+                    .search(&mut workspace, source.prepared(), Isometry2::identity())
+                    .expect("a guess");
+                score_at(matcher.grid(), &source.scan, result);
+            }
+        })
+    });
+    let matchers: Vec<GlobalMatcher> = pairs
+        .iter()
+        .map(|(_, r)| GlobalMatcher::new(r.prepared(), &params).expect("a grid"))
+        .collect();
+    group.bench_function("check-only", |b| {
+        b.iter(|| {
+            for (((source, _), result), matcher) in pairs.iter().zip(&results).zip(&matchers) {
+                let mut prepared = matcher
+                    .prepare(&mut workspace, source.prepared(), Isometry2::identity())
+                    .expect("a source");
+                let result_score = score_at(matcher.grid(), &source.scan, result);
+                matcher.best_above(&mut prepared, |s| clearly_better(s, result_score));
+            }
+        })
+    });
+    group.finish();
+}
+
 fn aces(c: &mut Criterion) {
     let Some(path) = aces_path() else {
         return;
@@ -107,6 +185,7 @@ fn aces(c: &mut Criterion) {
     let picked: Vec<usize> = (0..PAIRS).map(|i| i * n / PAIRS).collect();
     let pairs = pairs(&ds.scans, &picked);
     modes(c, "aces", &pairs);
+    check(c, "aces", &pairs);
     // Pair by pair: the grid and the search of one pair per iteration.
     let params = GlobalParams::default();
     let mut group = c.benchmark_group("global/aces-pairs");
@@ -154,7 +233,9 @@ fn synthetic(c: &mut Criterion) {
     };
     let ds = generate(&scenario).expect("synthetic data");
     let picked: Vec<usize> = (0..PAIRS).collect();
-    modes(c, "synthetic", &pairs(&ds.scans, &picked));
+    let pairs = pairs(&ds.scans, &picked);
+    modes(c, "synthetic", &pairs);
+    check(c, "synthetic", &pairs);
 }
 
 criterion_group!(benches, aces, synthetic);

@@ -8,6 +8,7 @@ pub mod estimates;
 pub mod init;
 pub mod runner;
 pub mod sampled;
+pub mod pair_search;
 pub mod setup;
 pub mod start_gate;
 pub mod status;

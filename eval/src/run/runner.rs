@@ -12,10 +12,9 @@ use std::ops::Range;
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
-use icp_core::global::{score_at, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace};
+use icp_core::global::{GlobalGuess, GlobalParams, GlobalWorkspace};
 use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
 use indicatif::ProgressBar;
-use nalgebra::Isometry2;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -28,6 +27,7 @@ use crate::run::init::InitMode;
 use crate::run::init::Previous;
 use crate::run::status::GlobalCheck;
 use crate::run::status::PairStatus;
+use crate::run::pair_search::Searched;
 
 /// One registration's outcome and its wall time (serialized whole into the part files of a
 /// sharded run, see the `shard` module).
@@ -54,10 +54,12 @@ pub struct PairRun {
 /// The global search of one pair (made once, shared by every variant).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct PairSearch {
-    /// Its best pose and score, or why it could not run (the pair's registrations then start
-    /// at the identity where the chain says global, and are not checked).
-    pub result: Result<GlobalGuess, IcpError>,
-    /// Wall time of the grid and the search, microseconds.
+    /// Its best pose and score (`None`: not searched for, only the results are checked), or
+    /// why it could not run (the pair's registrations then start at the identity where the
+    /// chain says global, and are not checked).
+    pub result: Result<Option<GlobalGuess>, IcpError>,
+    /// Wall time of the grid, the search and the checks of the pair's results, microseconds
+    /// (see [`crate::run::pair_search`]).
     pub time_us: f64,
 }
 
@@ -240,12 +242,6 @@ pub fn run_from(
     run_blocks(ds, pairs, methods, plan, progress, BLOCK_PAIRS, first)
 }
 
-/// A pair's global search with the reference's likelihood grid, which scores the results.
-struct Searched {
-    matcher: GlobalMatcher,
-    guess: GlobalGuess,
-}
-
 /// What the registrations of a block need besides the registrar and the pair.
 struct BlockJob<'a> {
     ds: &'a Dataset,
@@ -256,26 +252,27 @@ struct BlockJob<'a> {
 impl BlockJob<'_> {
     /// The global search of `pair` (surfaces of the default parameters, which the runner
     /// always prepares when searches are made).
-    fn search(
+    fn search<'w>(
         &self,
         pair: ScanPair,
-        workspace: &mut GlobalWorkspace,
-    ) -> (Option<Searched>, PairSearch) {
+        workspace: &'w mut GlobalWorkspace,
+    ) -> (Option<Searched<'w>>, PairSearch) {
         let params = SurfaceParams::default();
         let prepared_scan =
             |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
         let clock = Instant::now();
-        let searched = GlobalMatcher::new(prepared_scan(pair.reference), self.plan.global)
-            .and_then(|matcher| {
-                let guess =
-                    matcher.search(workspace, prepared_scan(pair.source), Isometry2::identity())?;
-                Ok(Searched { matcher, guess })
-            });
+        let searched = Searched::new(
+            prepared_scan(pair.reference),
+            prepared_scan(pair.source),
+            self.plan.global,
+            self.plan.chain.global(),
+            workspace,
+        );
         let time_us = clock.elapsed().as_secs_f64() * 1e6;
         match searched {
             Ok(s) => {
                 let info = PairSearch {
-                    result: Ok(s.guess),
+                    result: Ok(s.guess().copied()),
                     time_us,
                 };
                 (Some(s), info)
@@ -311,7 +308,7 @@ impl BlockJob<'_> {
         let mut time_us = 0.0;
         let mut kept = None;
         for (attempt, &mode) in self.plan.chain.modes().iter().enumerate() {
-            let guess = searched.map(|s| &s.guess);
+            let guess = searched.and_then(|s| s.guess());
             let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
             let chosen = match reg_close {
                 Some(gated) if used.is_close() => gated,
@@ -347,12 +344,7 @@ impl BlockJob<'_> {
         source: &icp_core::Scan,
     ) -> Option<GlobalCheck> {
         match (result, searched) {
-            (Ok(r), Some(s)) if self.plan.check => Some(GlobalCheck {
-                best_t_ref_src: s.guess.t_ref_src,
-                best_score: s.guess.score,
-                result_t_ref_src: r.t_ref_src,
-                result_score: score_at(s.matcher.grid(), source, &r.t_ref_src),
-            }),
+            (Ok(r), Some(s)) if self.plan.check => Some(s.check(r, source)),
             _ => None,
         }
     }
@@ -545,6 +537,10 @@ fn run_blocks(
                     runs.sort_by_key(|(v, _)| *v);
                     let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
                     runs.extend(assess_all(i, pair, searched.as_ref()));
+                    let search = search.map(|info| PairSearch {
+                        time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
+                        ..info
+                    });
                     (runs, search)
                 },
             )

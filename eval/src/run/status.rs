@@ -113,7 +113,8 @@ impl fmt::Display for PairStatus {
                 100.0 * MIN_OVERLAP
             ),
             Self::Suspect { check } => {
-                let (apart_m, apart_deg) = check.apart();
+                // A suspect check has the best pose.
+                let (apart_m, apart_deg) = check.apart().unwrap_or((f64::NAN, f64::NAN));
                 write!(
                     f,
                     "a pose {apart_m:.2} m and {apart_deg:.1}° away scores {:.2} on the reference's likelihood grid, the result {:.2}",
@@ -126,14 +127,16 @@ impl fmt::Display for PairStatus {
 }
 
 /// What a global search of the pair (correlative scan matching, `icp_core::global`) says about
-/// a registration's result: the best score it found and the result's own score on the same
-/// likelihood grid of the reference scan (the mean likelihood of the moved source returns,
-/// in [0, 1]).
+/// a registration's result: the best score it found, or a bound on it, and the result's own
+/// score on the same likelihood grid of the reference scan (the mean likelihood of the moved
+/// source returns, in [0, 1]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GlobalCheck {
-    /// The search's best pose.
-    pub best_t_ref_src: Isometry2<f64>,
-    /// Its score.
+    /// The search's best pose, when it is [`clearly_better`] than the result; `None`: no pose
+    /// is (the search proved it without finding the best pose).
+    pub best_t_ref_src: Option<Isometry2<f64>>,
+    /// The best pose's score; without it, the bound no pose exceeds (the highest score not
+    /// clearly better than the result's).
     pub best_score: f64,
     /// The registration's result.
     pub result_t_ref_src: Isometry2<f64>,
@@ -149,22 +152,31 @@ pub const SUSPECT_APART_M: f64 = 0.3;
 /// …or than this, degrees.
 pub const SUSPECT_APART_DEG: f64 = 3.0;
 
+/// True when a pose scoring `score` explains the scans clearly better than a result scoring
+/// `result_score` (monotone in `score`).
+pub fn clearly_better(score: f64, result_score: f64) -> bool {
+    score - result_score > SUSPECT_SCORE_GAIN
+}
+
 impl GlobalCheck {
-    /// How far the search's best pose is from the result: translation m, rotation degrees.
-    pub fn apart(&self) -> (f64, f64) {
-        let d = self.result_t_ref_src.inverse() * self.best_t_ref_src;
-        (
-            (self.best_t_ref_src.translation.vector - self.result_t_ref_src.translation.vector)
-                .norm(),
-            d.rotation.angle().to_degrees().abs(),
-        )
+    /// How far the search's best pose is from the result: translation m, rotation degrees
+    /// (`None` without the best pose).
+    pub fn apart(&self) -> Option<(f64, f64)> {
+        self.best_t_ref_src.map(|best| {
+            let d = self.result_t_ref_src.inverse() * best;
+            (
+                (best.translation.vector - self.result_t_ref_src.translation.vector).norm(),
+                d.rotation.angle().to_degrees().abs(),
+            )
+        })
     }
 
     /// True when a clearly better pose lies far from the result.
     pub fn suspect(&self) -> bool {
-        let (m, deg) = self.apart();
-        self.best_score - self.result_score > SUSPECT_SCORE_GAIN
-            && (m > SUSPECT_APART_M || deg > SUSPECT_APART_DEG)
+        self.apart().is_some_and(|(m, deg)| {
+            clearly_better(self.best_score, self.result_score)
+                && (m > SUSPECT_APART_M || deg > SUSPECT_APART_DEG)
+        })
     }
 }
 
@@ -178,7 +190,7 @@ mod tests {
     fn a_result_is_suspect_only_when_a_clearly_better_pose_is_far_away() {
         let at = |x: f64, deg: f64| Isometry2::new(Vector2::new(x, 0.0), deg.to_radians());
         let check = |best: Isometry2<f64>, best_score: f64, result_score: f64| GlobalCheck {
-            best_t_ref_src: best,
+            best_t_ref_src: Some(best),
             best_score,
             result_t_ref_src: at(0.0, 0.0),
             result_score,
@@ -197,7 +209,12 @@ mod tests {
             "far, not clearly better"
         );
         let c = check(at(0.5, 0.0), 0.6, 0.3);
-        assert_eq!(c.apart(), (0.5, 0.0));
+        assert_eq!(c.apart(), Some((0.5, 0.0)));
+        let bound = GlobalCheck {
+            best_t_ref_src: None,
+            ..check(at(2.0, 0.0), 0.35, 0.3)
+        };
+        assert!(!bound.suspect(), "a bound: no clearly better pose");
         let status = PairStatus::Suspect { check: c };
         assert_eq!(status.kind(), StatusKind::Suspect);
         assert_eq!(

@@ -10,6 +10,8 @@
 //!   2D LIDAR SLAM", ICRA).
 //! * `search` (private): the depth-first branch and bound over translations (Hess et al.
 //!   2016).
+//! * `check` (private): whether any pose scores above a bar, searched only above it: the
+//!   check of a result found elsewhere ([`GlobalMatcher::best_above`]).
 //! * `histogram` (private): rotation hypotheses from orientation histograms of the surface
 //!   normals (Weiss & von Puttkamer 1995).
 //!
@@ -69,6 +71,7 @@
 //! # Ok::<(), icp_core::IcpError>(())
 //! ```
 
+mod check;
 pub mod grid;
 mod histogram;
 mod search;
@@ -80,10 +83,11 @@ use serde::{Deserialize, Serialize};
 use crate::error::ParamError;
 use crate::error::{ConfigError, ScanRole};
 use crate::{IcpError, Prepared};
+pub use check::{Above, SourceSearch};
 use grid::{mean_of, range_weight};
 pub use grid::{score_at, LikelihoodGrid};
 use histogram::OrientationHistogram;
-use search::{Buffers, Search};
+use search::{Best, Buffers, Search};
 
 /// How the rotation candidates are chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
@@ -378,17 +382,33 @@ impl GlobalMatcher {
     }
 
     /// The pose of `source` in the reference frame that scores best within the window around
-    /// `centre` (e.g. the identity, or odometry), in the buffers of `workspace`.
+    /// `centre` (e.g. the identity, or odometry), in the buffers of `workspace`: [`Self::prepare`]
+    /// then [`Self::best`].
     ///
-    /// `Err` when `centre` is not finite, the source has no return, (histogram mode) its
-    /// surface estimates are not one per return, or the rotation candidates would exceed
-    /// [`MAX_ROTATIONS`].
+    /// `Err` as [`Self::prepare`].
     pub fn search(
         &self,
         workspace: &mut GlobalWorkspace,
         source: Prepared<'_>,
         centre: Isometry2<f64>,
     ) -> Result<GlobalGuess, IcpError> {
+        let mut prepared = self.prepare(workspace, source, centre)?;
+        Ok(self.best(&mut prepared))
+    }
+
+    /// `source` made ready for searches within the window around `centre`, in the buffers of
+    /// `workspace` (held until it is dropped): its points and weights, the rotation candidates and the sorted top-level
+    /// nodes of the branch and bound, shared by [`Self::best`] and [`Self::best_above`].
+    ///
+    /// `Err` when `centre` is not finite, the source has no return, (histogram mode) its
+    /// surface estimates are not one per return, or the rotation candidates would exceed
+    /// [`MAX_ROTATIONS`].
+    pub fn prepare<'w>(
+        &self,
+        workspace: &'w mut GlobalWorkspace,
+        source: Prepared<'_>,
+        centre: Isometry2<f64>,
+    ) -> Result<SourceSearch<'w>, IcpError> {
         let centre_angle = centre.rotation.angle();
         let t = centre.translation.vector;
         for value in [t.x, t.y, centre_angle] {
@@ -404,7 +424,7 @@ impl GlobalMatcher {
             points,
             weights,
             rotations,
-            buffers,
+            ..
         } = workspace;
         points.clear();
         points.extend(source.scan.returns().iter().map(|r| r.point));
@@ -424,15 +444,25 @@ impl GlobalMatcher {
             .fold(0.0, |m: f64, r| m.max(r.range_m));
         let step_rad = self.params.angular_step_rad(max_range_m);
         self.rotation_candidates(source, centre_angle, step_rad, rotations)?;
-        let search = Search {
-            grid: &self.grid,
-            points,
-            weights,
-            rotations,
-            centre: t,
-            window: self.params.window_cells(),
+        let total_weight = weights.iter().map(|&w| u64::from(w)).sum();
+        let mut prepared = SourceSearch {
+            workspace,
+            centre,
+            total_weight,
+            lookups: 0,
+            best: None,
+            cleared: None,
         };
-        let best = search.run(buffers);
+        let (search, buffers) = self.split(&mut prepared);
+        prepared.lookups = search.top_level(buffers);
+        Ok(prepared)
+    }
+
+    /// The best pose of `prepared` and its runner-up (the search's whole answer).
+    pub fn best(&self, prepared: &mut SourceSearch<'_>) -> GlobalGuess {
+        let known = prepared.best;
+        let (search, buffers) = self.split(prepared);
+        let best = known.unwrap_or_else(|| search.above(buffers, 0));
         let runner_up = (self.params.ambiguity_ratio < 1.0).then(|| {
             search.runner_up(
                 buffers,
@@ -441,26 +471,54 @@ impl GlobalMatcher {
                 (self.params.ambiguity_separation_m / self.params.resolution_m).round() as i32,
             )
         });
-        let t_ref_src = match best.rotation {
+        let fresh = if known.is_some() { 0 } else { best.lookups };
+        prepared.lookups += fresh + runner_up.map_or(0, |r| r.lookups);
+        prepared.best = Some(best);
+        let total = prepared.total_weight;
+        GlobalGuess {
+            t_ref_src: self.pose_of(prepared, &best),
+            score: mean_of(best.sum, total),
+            runner_up_score: runner_up
+                .filter(|r| r.rotation.is_some())
+                .map(|r| mean_of(r.sum, total)),
+            rotations: prepared.workspace.rotations.len(),
+            grid_lookups: prepared.lookups,
+        }
+    }
+
+    /// The search over `prepared`'s buffers, and the buffers of its descents.
+    fn split<'a>(&'a self, prepared: &'a mut SourceSearch<'_>) -> (Search<'a>, &'a mut Buffers) {
+        let GlobalWorkspace {
+            points,
+            weights,
+            rotations,
+            buffers,
+        } = &mut *prepared.workspace;
+        let search = Search {
+            grid: &self.grid,
+            points,
+            weights,
+            rotations,
+            centre: prepared.centre.translation.vector,
+            window: self.params.window_cells(),
+        };
+        (search, buffers)
+    }
+
+    /// The pose of a search's `best` (the centre when no pose scores above 0).
+    fn pose_of(&self, prepared: &SourceSearch<'_>, best: &Best) -> Isometry2<f64> {
+        match best.rotation {
             Some(r) => {
                 let offset = Vector2::new(f64::from(best.offset[0]), f64::from(best.offset[1]));
                 Isometry2::from_parts(
-                    Translation2::from(t + offset * self.params.resolution_m),
-                    UnitComplex::new(rotations[r]),
+                    Translation2::from(
+                        prepared.centre.translation.vector + offset * self.params.resolution_m,
+                    ),
+                    UnitComplex::new(prepared.workspace.rotations[r]),
                 )
             }
-            None => centre,
-        };
-        let total_weight = weights.iter().map(|&w| u64::from(w)).sum();
-        Ok(GlobalGuess {
-            t_ref_src,
-            score: mean_of(best.sum, total_weight),
-            runner_up_score: runner_up
-                .filter(|r| r.rotation.is_some())
-                .map(|r| mean_of(r.sum, total_weight)),
-            rotations: rotations.len(),
-            grid_lookups: best.lookups + runner_up.map_or(0, |r| r.lookups),
-        })
+            None => prepared.centre,
+        }
     }
 
     /// Fills `out` with the rotation candidates (radians, absolute): the lattice

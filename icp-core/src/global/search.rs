@@ -97,9 +97,10 @@ impl Search<'_> {
             })
     }
 
-    /// The best pose by branch and bound (see the module doc). Leaves in `buffers` the sorted
-    /// top-level nodes that [`Self::runner_up`] starts from.
-    pub fn run(&self, buffers: &mut Buffers) -> Best {
+    /// Scores the top-level nodes of every rotation into `buffers`, sorted best first, and
+    /// the headroom of the sums, that [`Self::above`] and [`Self::runner_up`] start from;
+    /// returns the cells read.
+    pub fn top_level(&self, buffers: &mut Buffers) -> u64 {
         let n = self.points.len() as u64;
         let top_level = self.grid.depth();
         // The most the points from k on can add: their weights at full scale.
@@ -127,9 +128,16 @@ impl Search<'_> {
         }
         // Best first; the sort is stable, so ties keep their generation order.
         buffers.top.sort_by_key(|node| std::cmp::Reverse(node.sum));
-        let mut best = self.descend(buffers, 0, None);
-        best.lookups += buffers.top.len() as u64 * n;
-        best
+        buffers.top.len() as u64 * n
+    }
+
+    /// The best pose whose sum exceeds `floor` (otherwise `rotation: None`, `sum: floor`),
+    /// from the top-level nodes [`Self::top_level`] left in `buffers`. When one exists it is
+    /// the pose [`Self::run`] finds: every node above the maximum is visited in the same
+    /// order (roots and children sorted stably by their bounds), pruned only once a leaf of
+    /// the maximum is found, so the first such leaf is kept either way.
+    pub fn above(&self, buffers: &mut Buffers, floor: u64) -> Best {
+        self.descend(buffers, floor, None)
     }
 
     /// The best pose at `best`'s rotation more than `separation` cells of offset away from
@@ -257,6 +265,15 @@ impl Exclusion {
 
 #[cfg(test)]
 impl Search<'_> {
+    /// The best pose by branch and bound (see the module doc): the top level, then the
+    /// descent above 0.
+    pub fn run(&self, buffers: &mut Buffers) -> Best {
+        let top_lookups = self.top_level(buffers);
+        let mut best = self.above(buffers, 0);
+        best.lookups += top_lookups;
+        best
+    }
+
     /// The best pose by scoring every offset of every rotation at level 0: the oracle the
     /// branch and bound must equal.
     pub fn brute_force(&self) -> Best {
@@ -304,7 +321,8 @@ mod tests {
         #![proptest_config(ProptestConfig::with_cases(96))]
         /// On random scenes, windows, pyramid depths (fewer levels than the window needs, as
         /// many, more) and rotations, the branch and bound finds the brute-force maximum, at a
-        /// pose of the search space that has it, reading fewer cells when the window is large.
+        /// pose of the search space that has it, reading fewer cells when the window is large;
+        /// searched above a floor, it finds the same pose when the maximum exceeds the floor.
         #[test]
         fn branch_and_bound_equals_brute_force(
             reference in prop::collection::vec((-3.0..3.0f64, -3.0..3.0f64), 1..60),
@@ -317,6 +335,7 @@ mod tests {
             centre in (-0.5..0.5f64, -0.5..0.5f64),
             separation in 0i32..5,
             ratio in 0.0..1.0f64,
+            floor_ratio in 0.0..1.2f64,
         ) {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
@@ -344,6 +363,14 @@ mod tests {
                     prop_assert_eq!(sum_at(&search, r, bnb.offset), bnb.sum);
                 }
                 None => prop_assert_eq!(bnb.sum, 0),
+            }
+            // Above a floor: the same pose when the best exceeds it, none otherwise.
+            let floor = (floor_ratio * bnb.sum as f64) as u64;
+            let above = search.above(&mut buffers, floor);
+            if bnb.sum > floor {
+                prop_assert_eq!((above.rotation, above.offset, above.sum), (bnb.rotation, bnb.offset, bnb.sum));
+            } else {
+                prop_assert_eq!((above.rotation, above.sum), (None, floor));
             }
             // The runner-up at the best rotation, away from the best offset.
             let floor = (ratio * bnb.sum as f64) as u64;

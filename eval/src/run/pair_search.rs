@@ -1,0 +1,85 @@
+//! One pair's global search (correlative scan matching, `icp_core::global`), shared by every
+//! registration of the pair: the reference's likelihood grid, the source made ready for
+//! searches, the best pose when a start needs it (`--init global`), and the check of each
+//! result against it ([`GlobalCheck`]).
+//!
+//! A check asks only the question the suspect rule asks: does a pose score more than the
+//! result plus [`SUSPECT_SCORE_GAIN`](crate::run::status::SUSPECT_SCORE_GAIN)? The branch and bound searches above that bar alone
+//! ([`GlobalMatcher::best_above`]): when nothing clears it (a right result) it proves the
+//! answer no early; when something does, it finds the search's best pose, the one the rule has
+//! always been applied to. The decisions are those of a check against the full search.
+
+use std::cell::{Cell, RefCell};
+use std::time::Instant;
+
+use icp_core::global::{
+    score_at, Above, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, SourceSearch,
+};
+use icp_core::{IcpError, Prepared, Registration, Scan};
+use nalgebra::Isometry2;
+
+use crate::run::status::{clearly_better, GlobalCheck};
+
+/// A pair's global search, used on the thread that made it.
+pub(crate) struct Searched<'w> {
+    matcher: GlobalMatcher,
+    source: RefCell<SourceSearch<'w>>,
+    guess: Option<GlobalGuess>,
+    /// Wall time of the checks so far, microseconds.
+    check_us: Cell<f64>,
+}
+
+impl<'w> Searched<'w> {
+    /// The grid of `reference` and `source` prepared around the identity in `workspace`, with
+    /// the best pose when `best` (a start needs it).
+    pub fn new(
+        reference: Prepared<'_>,
+        source: Prepared<'_>,
+        params: &GlobalParams,
+        best: bool,
+        workspace: &'w mut GlobalWorkspace,
+    ) -> Result<Self, IcpError> {
+        let matcher = GlobalMatcher::new(reference, params)?;
+        let mut prepared = matcher.prepare(workspace, source, Isometry2::identity())?;
+        let guess = best.then(|| matcher.best(&mut prepared));
+        Ok(Self {
+            matcher,
+            source: RefCell::new(prepared),
+            guess,
+            check_us: Cell::new(0.0),
+        })
+    }
+
+    /// The best pose, when it was asked for.
+    pub fn guess(&self) -> Option<&GlobalGuess> {
+        self.guess.as_ref()
+    }
+
+    /// Wall time of the checks made so far, microseconds.
+    pub fn check_us(&self) -> f64 {
+        self.check_us.get()
+    }
+
+    /// What the search says about `result` of the source scan `source`.
+    pub fn check(&self, result: &Registration, source: &Scan) -> GlobalCheck {
+        let clock = Instant::now();
+        let result_score = score_at(self.matcher.grid(), source, &result.t_ref_src);
+        let above = self
+            .matcher
+            .best_above(&mut self.source.borrow_mut(), |score| {
+                clearly_better(score, result_score)
+            });
+        let (best_t_ref_src, best_score) = match above {
+            Above::Best { t_ref_src, score } => (Some(t_ref_src), score),
+            Above::AtMost { score } => (None, score),
+        };
+        self.check_us
+            .set(self.check_us.get() + clock.elapsed().as_secs_f64() * 1e6);
+        GlobalCheck {
+            best_t_ref_src,
+            best_score,
+            result_t_ref_src: result.t_ref_src,
+            result_score,
+        }
+    }
+}
