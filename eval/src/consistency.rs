@@ -36,6 +36,12 @@ pub enum CovarianceMode {
     ClosedForm,
     /// Re-registration under resampled sensor noise and start (every variant).
     Sampled,
+    /// The direction-wise larger of the closed form and the grouped jackknife of its pairs
+    /// over angular sectors ([`crate::extended`]).
+    Extended,
+    /// [`CovarianceMode::Extended`] plus the spread of re-registrations from six perturbed
+    /// starts ([`crate::restarts`]).
+    Restarts,
     /// No covariance (the paper's run).
     #[default]
     Off,
@@ -43,7 +49,7 @@ pub enum CovarianceMode {
 
 /// Every mode with its name and help, registered once: parsing, `--covariance`'s help and the
 /// error messages are generated from it.
-pub const MODES: [(CovarianceMode, &str, &str); 3] = [
+pub const MODES: [(CovarianceMode, &str, &str); 5] = [
     (
         CovarianceMode::ClosedForm,
         "closed-form",
@@ -53,6 +59,16 @@ pub const MODES: [(CovarianceMode, &str, &str); 3] = [
         CovarianceMode::Sampled,
         "sampled",
         "re-registration with resampled sensor noise and start, seeded per pair (every variant; costs a registration per sample)",
+    ),
+    (
+        CovarianceMode::Extended,
+        "extended",
+        "the larger, direction by direction, of the closed form and the jackknife of its pairs over 45° sectors: holds beyond the sensor model (point-to-line and GICP; the default)",
+    ),
+    (
+        CovarianceMode::Restarts,
+        "restarts",
+        "extended plus the spread of re-registrations from six perturbed starts (point-to-line and GICP; costs up to six registrations per pair)",
     ),
     (
         CovarianceMode::Off,
@@ -421,7 +437,8 @@ pub fn fill(
     if mode == CovarianceMode::Off {
         return;
     }
-    let Some((reg, cov)) = reg.and_then(|r| Some((r, reported(&r.covariance?, mode, inflation))))
+    let Some((reg, cov)) =
+        reg.and_then(|r| Some((r, crate::extended::of_registration(r, mode, inflation)?)))
     else {
         return;
     };
@@ -492,7 +509,10 @@ pub fn summarize(
     };
     Some(ConsistencySummary {
         mode,
-        inflation: if mode == CovarianceMode::ClosedForm {
+        inflation: if matches!(
+            mode,
+            CovarianceMode::ClosedForm | CovarianceMode::Extended | CovarianceMode::Restarts
+        ) {
             inflation
         } else {
             1.0

@@ -19,6 +19,7 @@ pub mod consistency;
 pub mod estimates;
 pub mod evo;
 pub mod evo_zip;
+pub mod extended;
 pub mod gate;
 pub mod init;
 pub mod listing;
@@ -30,6 +31,7 @@ pub mod plots;
 pub mod published;
 pub mod reference;
 pub mod report;
+pub mod restarts;
 pub mod runner;
 pub mod sampled;
 pub mod scaling;
@@ -114,6 +116,9 @@ pub fn evaluate(
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
     if setup.covariance == consistency::CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
+    }
+    if setup.covariance == consistency::CovarianceMode::Restarts {
+        restarts::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
     progress.finish_and_clear();
     Ok(report::build(ds, &pairs, skipped, setup, &runs))
