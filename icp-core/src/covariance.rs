@@ -37,8 +37,9 @@
 //! The noise of the normals (it enters through the residual along the tangent), the dependence
 //! of the matching on the noise (valid for point-to-line, not point-to-point: Bonnabel et al.
 //! 2016, so point-to-point has no closed form here), the sampling of surfaces by discrete beams
-//! and any bias of the sensor. Callers account for them by a floor or an inflation measured on
-//! data with exact truth (see `eval`'s consistency report).
+//! and any bias of the sensor. Callers account for them by an inflation measured on data with
+//! exact truth (see `eval`'s consistency report), or by the grouped jackknife over sectors
+//! ([`Sandwich::jackknife_covariance`]), which sees what the residuals show.
 //!
 //! ## Coordinates
 //! The increment `δ` turns about the centre `c` of the moved source points and is applied on
@@ -244,7 +245,11 @@ impl Sandwich {
     }
 
     /// `G Cov(δ) Gᵀ` (symmetrised): from the increment about the centre to `(tx, ty, θ)`.
-    fn in_pose_coordinates(&self, cov_delta: &Matrix3<f64>, t_ref_src: &Isometry2<f64>) -> Matrix3<f64> {
+    fn in_pose_coordinates(
+        &self,
+        cov_delta: &Matrix3<f64>,
+        t_ref_src: &Isometry2<f64>,
+    ) -> Matrix3<f64> {
         let v = t_ref_src.translation.vector - self.center.coords;
         let g = Matrix3::new(1.0, 0.0, -v.y, 0.0, 1.0, v.x, 0.0, 0.0, 1.0);
         let c = g * cov_delta * g.transpose();
