@@ -8,6 +8,7 @@ use crate::error::EvalError;
 use crate::measure::build;
 use crate::measure::report::RunReport;
 use crate::run::covariance::CovarianceMode;
+use crate::run::restarts;
 use crate::run::runner;
 use crate::run::sampled;
 use crate::run::setup::{checked_pairs, EvalSetup, GlobalChecks};
@@ -30,6 +31,9 @@ pub fn evaluate(
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
     if setup.covariance == CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
+    }
+    if setup.covariance == CovarianceMode::Restarts {
+        restarts::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
     progress.finish_and_clear();
     Ok(build::build(ds, &pairs, skipped, setup, &runs))

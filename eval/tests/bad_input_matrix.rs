@@ -489,7 +489,7 @@ fn covariance_with_an_unknown_mode() {
         (
             Some(2),
             "error: invalid value 'closed_form' for '--covariance <COVARIANCE>': --covariance \
-             \"closed_form\": unknown mode (known: closed-form, sampled, off)"
+             \"closed_form\": unknown mode (known: closed-form, sampled, extended, restarts, off)"
                 .to_owned()
         )
     );

@@ -111,6 +111,7 @@ fn an_unbounded_covariance_gives_empty_cells_and_a_flag() {
             direction: Vector3::x(),
             condition: f64::INFINITY,
         }),
+        jackknife_covariance: None,
     };
     let truth = Some(Isometry2::identity());
     fill(&mut row, Some(&reg), truth, CovarianceMode::ClosedForm, 1.0);

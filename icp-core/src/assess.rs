@@ -64,6 +64,7 @@ pub fn assess(
         conditioning: conditioning(&moved, reference.surfaces.points(), &pairs),
         overlap: overlap(&moved, &dst, &pairs),
         covariance: None,
+        jackknife_covariance: None,
     })
 }
 

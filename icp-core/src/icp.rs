@@ -297,7 +297,7 @@ impl Registrar for Icp {
         // The closed-form covariance, once, with the weights of the final iteration (pair i
         // is source point i's in every iteration), those of pairs now unusable zeroed; made
         // afresh when no step was taken. The buffers are sized: nothing is allocated.
-        let covariance = {
+        let (covariance, jackknife_covariance) = {
             let set = pair_set!();
             let fresh = iterations == 0 || weights.len() != residuals.len();
             if fresh {
@@ -311,9 +311,11 @@ impl Registrar for Icp {
             if fresh {
                 self.robust.reweight(dists, residuals, weights, scratch);
             }
-            self.metric
-                .sandwich(&set, weights, &self.sensor)
-                .map(|sums| sums.covariance(&t_ref_src))
+            let sums = self.metric.sandwich(&set, weights, &self.sensor);
+            (
+                sums.map(|s| s.covariance(&t_ref_src)),
+                sums.map(|s| s.jackknife_covariance(&t_ref_src)),
+            )
         };
         Ok(Registration {
             t_ref_src,
@@ -326,6 +328,7 @@ impl Registrar for Icp {
             conditioning: conditioning(moved, dst_surfaces, pairs),
             overlap: overlap(moved, dst_pts, pairs),
             covariance,
+            jackknife_covariance,
         })
     }
 }

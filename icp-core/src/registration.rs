@@ -41,6 +41,11 @@ pub struct Registration {
     /// [`crate::covariance`]), from the final pairs and weights and the chain's sensor model;
     /// `None` for a metric without a valid closed form (point-to-point).
     pub covariance: Option<Covariance>,
+    /// The grouped jackknife of the same final pairs over angular sectors (see
+    /// [`crate::covariance::Sandwich::jackknife_covariance`]): the covariance the residuals
+    /// show, whatever the sensor model says; `None` where `covariance` is.
+    #[serde(default)]
+    pub jackknife_covariance: Option<Covariance>,
 }
 
 impl Registration {

@@ -135,10 +135,17 @@ pub(crate) fn run_shard_cmd(
     common: &Common,
 ) -> Result<ExitCode> {
     if let Work::Run(run) | Work::Compare { run, .. } = &work {
-        if run.covariance == CovarianceMode::Sampled {
+        if matches!(
+            run.covariance,
+            CovarianceMode::Sampled | CovarianceMode::Restarts
+        ) {
             // Its samples are seeded by the pair's position in the run, which a shard does not
-            // see yet: refused rather than giving other numbers than a single run.
-            bail!("--covariance sampled cannot be sharded yet: run it unsharded (--no-shard)");
+            // see yet (restarts: made after the run, which a shard does not do yet): refused
+            // rather than giving other numbers than a single run.
+            bail!(
+                "--covariance {} cannot be sharded yet: run it unsharded (--no-shard)",
+                run.covariance
+            );
         }
     }
     let plan = Plan::new(ds, specs, work, shard.count)?;

@@ -55,7 +55,7 @@ pub(crate) struct RunArgs {
     pub(crate) global_rotation: GlobalRotation,
     /// Where each registration's covariance comes from (help generated from the registered
     /// modes).
-    #[arg(long, default_value = "closed-form")]
+    #[arg(long, default_value = "extended")]
     pub(crate) covariance: CovarianceMode,
     /// Another estimator's results, evaluated after the variants like one more variant:
     /// NAME=FILE, the file TUM poses per scan (`timestamp x y z qx qy qz qw`, matched to the

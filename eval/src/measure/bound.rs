@@ -102,7 +102,15 @@ pub struct BoundSummary {
     pub trans_rms_m: f64,
     /// RMS of the rotation bound, degrees.
     pub rot_rms_deg: f64,
+    /// Which sensor model the bound assumes: always the dataset's nominal one ([`NOMINAL`]).
+    #[serde(default)]
+    pub sensor_model: String,
 }
+
+/// What [`BoundSummary::sensor_model`] says: the bound is the nominal model's, which data
+/// with errors beyond it (the rough harbour, real logs) do not reach.
+pub const NOMINAL: &str =
+    "nominal: the dataset's stated sensor model (eq. 8); errors it leaves out are not in the bound";
 
 /// The summary of `bounds`, when any pair has one.
 pub fn summarize(bounds: &[Option<PairBound>]) -> Option<BoundSummary> {
@@ -126,6 +134,7 @@ pub fn summarize(bounds: &[Option<PairBound>]) -> Option<BoundSummary> {
         unbounded_pairs,
         trans_rms_m: rms(&trans),
         rot_rms_deg: rms(&rot),
+        sensor_model: NOMINAL.to_owned(),
     })
 }
 

@@ -18,13 +18,13 @@
 //! successive differences, and the adjusted `z = e/√(σ² + σ_ref²)` is reported beside the raw
 //! one.
 
-use icp_core::registry::StageSpec;
 use icp_core::{Covariance, MovementSigmas, Registration};
 use nalgebra::{Isometry2, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::measure::record::PairRecord;
 use crate::run::covariance::{pose_error, CovarianceMode};
+use crate::run::extended;
 
 /// The NEES `eᵀ C⁻¹ e` of the error `e` under `cov`; `None` when `cov` is not positive
 /// definite (a Cholesky factor does not exist) or the result is not finite.
@@ -32,38 +32,6 @@ pub fn nees(error: &Vector3<f64>, cov: &Matrix3<f64>) -> Option<f64> {
     let chol = cov.cholesky()?;
     let v = error.dot(&chol.solve(error));
     v.is_finite().then_some(v)
-}
-
-/// The inflation of the closed-form covariance of GICP with sensor covariances in `Ω`
-/// (HD_GICP), for what its model leaves out: the noise of the estimated surface covariances,
-/// which enters through the tangential part of `e` that such an `Ω` no longer removes.
-/// Chosen on the room Monte-Carlo of `icp-core/tests/covariance.rs` (an independent scene with
-/// exact truth): Monte-Carlo over closed-form variance 1.24, 1.22 and 1.46 on `(tx, ty, θ)`,
-/// mean 1.31, rounded to 1.3. Point-to-line and GICP with surface covariances alone get none:
-/// their ANEES/3 on the synthetic harbour is 0.88–1.06 (`paper` and `marina-like`), and the
-/// room Monte-Carlo agrees with point-to-line's closed form within its sampling error.
-pub const SENSOR_GICP_INFLATION: f64 = 1.3;
-
-/// The inflation of the closed form of a chain whose metric is `metric`:
-/// [`SENSOR_GICP_INFLATION`] for `plane_to_plane` with `surface_and_sensor` covariances, 1
-/// otherwise.
-pub fn closed_form_inflation(metric: &StageSpec) -> f64 {
-    let sensor =
-        metric.params.get("covariance").and_then(|v| v.as_str()) == Some("surface_and_sensor");
-    if metric.kind == "plane_to_plane" && sensor {
-        SENSOR_GICP_INFLATION
-    } else {
-        1.0
-    }
-}
-
-/// The covariance as the report uses it: the closed form times `inflation`, a sampled
-/// estimate as it is.
-pub fn reported(cov: &Covariance, mode: CovarianceMode, inflation: f64) -> Covariance {
-    match (cov, mode) {
-        (Covariance::Bounded(c), CovarianceMode::ClosedForm) => Covariance::Bounded(c * inflation),
-        _ => *cov,
-    }
 }
 
 /// The regularised lower incomplete gamma function `P(a, x)` (series below `a + 1`, Lentz's
@@ -326,7 +294,8 @@ pub fn fill(
     if mode == CovarianceMode::Off {
         return;
     }
-    let Some((reg, cov)) = reg.and_then(|r| Some((r, reported(&r.covariance?, mode, inflation))))
+    let Some((reg, cov)) =
+        reg.and_then(|r| Some((r, extended::of_registration(r, mode, inflation)?)))
     else {
         return;
     };
@@ -397,7 +366,10 @@ pub fn summarize(
     };
     Some(ConsistencySummary {
         mode,
-        inflation: if mode == CovarianceMode::ClosedForm {
+        inflation: if matches!(
+            mode,
+            CovarianceMode::ClosedForm | CovarianceMode::Extended | CovarianceMode::Restarts
+        ) {
             inflation
         } else {
             1.0

@@ -5,10 +5,12 @@
 
 pub mod covariance;
 pub mod estimates;
+pub mod extended;
 pub mod init;
 pub mod runner;
 pub mod sampled;
 pub mod pair_search;
+pub mod restarts;
 pub mod setup;
 pub mod start_gate;
 pub mod status;

@@ -150,7 +150,8 @@ impl Metric for PlaneToPlane {
             if let Some((ends, omega)) = self.terms(set, i) {
                 let jac = e_jacobian(&ends.source, &sums.center);
                 let noise = difference_noise(set, i, sensor);
-                sums.add(&ends.source, &jac, &omega, &noise, w);
+                let e = ends.source - ends.reference;
+                sums.add(&ends.source, &jac, &omega, &noise, &e, w);
             }
         }))
     }

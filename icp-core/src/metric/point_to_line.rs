@@ -101,7 +101,8 @@ impl Metric for PointToLine {
                 let n = ends.surface.normal;
                 let (tx, ty) = turn(&ends.source, &sums.center);
                 let j = Vector3::new(n.x, n.y, n.x * tx + n.y * ty);
-                sums.add_scalar(&ends.source, &j, normal_noise(set, i, &n, sensor), w);
+                let r = ends.normal_residual();
+                sums.add_scalar(&ends.source, &j, normal_noise(set, i, &n, sensor), r, w);
             }
         }))
     }

@@ -468,8 +468,9 @@ pub fn table_md(report: &RunReport) -> String {
             let _ = writeln!(
                 out,
                 "The noise-limited bound (Cramér–Rao, Censi 2007, from the true surface normals and \
-                 the sensor model): RMS over {} pairs {:.4} m and {:.3}°{}. \"× bound\" is a \
-                 variant's RMSE over the RMS bound of the same pairs.\n",
+                 the dataset's nominal sensor model: errors the model leaves out are not in it): \
+                 RMS over {} pairs {:.4} m and {:.3}°{}. \"× bound\" is a variant's RMSE over the \
+                 RMS bound of the same pairs.\n",
                 b.pairs,
                 b.trans_rms_m,
                 b.rot_rms_deg,
