@@ -17,6 +17,7 @@ use crate::measure::reference;
 use crate::measure::report::*;
 use crate::measure::stats::{median_p95, Stats};
 use crate::measure::trajectory;
+use crate::run::covariance;
 use crate::run::runner::{PairRun, Runs};
 use crate::run::setup::{EvalSetup, OffsetChoice, ReferenceChecks};
 use crate::run::status::StatusKind;
@@ -128,7 +129,7 @@ pub fn build(
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
         // An external estimate has no covariance: no inflation of one.
         let inflation = setup.variants.get(vi).map_or(1.0, |v| {
-            consistency::closed_form_inflation(&v.spec().metric)
+            covariance::closed_form_inflation(&v.spec().metric)
         });
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(

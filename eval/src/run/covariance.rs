@@ -18,10 +18,10 @@ pub enum CovarianceMode {
     /// Re-registration under resampled sensor noise and start (every variant).
     Sampled,
     /// The direction-wise larger of the closed form and the grouped jackknife of its pairs
-    /// over angular sectors ([`crate::run::extended`]).
+    /// over angular sectors (the `extended` module).
     Extended,
     /// [`CovarianceMode::Extended`] plus the spread of re-registrations from six perturbed
-    /// starts ([`crate::run::restarts`]).
+    /// starts (the `restarts` module).
     Restarts,
     /// No covariance (the paper's run).
     #[default]
