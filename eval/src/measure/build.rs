@@ -128,9 +128,10 @@ pub fn build(
         let mut rows = Vec::with_capacity(pairs.len());
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
         // An external estimate has no covariance: no inflation of one.
-        let inflation = setup.variants.get(vi).map_or(1.0, |v| {
-            covariance::closed_form_inflation(&v.spec().metric)
-        });
+        let inflation = setup
+            .variants
+            .get(vi)
+            .map_or(1.0, |v| covariance::closed_form_inflation(&v.spec().metric));
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
                 name,

@@ -25,9 +25,9 @@ use crate::run::init;
 use crate::run::init::InitChain;
 use crate::run::init::InitMode;
 use crate::run::init::Previous;
+use crate::run::pair_search::Searched;
 use crate::run::status::GlobalCheck;
 use crate::run::status::PairStatus;
-use crate::run::pair_search::Searched;
 
 /// One registration's outcome and its wall time (serialized whole into the part files of a
 /// sharded run, see the `shard` module).
