@@ -30,6 +30,8 @@ pub struct SourceSearch<'w> {
     pub(super) total_weight: u64,
     /// Cells read so far (the top-level nodes and every descent).
     pub(super) lookups: u64,
+    /// The floor above which the top-level nodes were scored (`None`: not yet).
+    pub(super) top_floor: Option<u64>,
     /// The search's best pose, once a descent found it.
     pub(super) best: Option<Best>,
     /// The lowest floor a descent proved no pose exceeds.
@@ -104,6 +106,7 @@ impl GlobalMatcher {
         if prepared.cleared.is_some_and(|c| c <= floor) {
             return bar;
         }
+        self.top_above(prepared, floor);
         let (search, buffers) = self.split(prepared);
         let found = search.above(buffers, floor);
         prepared.lookups += found.lookups;

@@ -70,12 +70,12 @@ impl Level {
     fn pooled(&self, s: u32) -> Level {
         let (nx, ny, s) = (self.nx as usize, self.ny as usize, s as usize);
         let (mx, my) = (nx + s, ny + s);
-        let mut along_x = vec![0u8; mx * ny];
-        for (row, out) in self.data.chunks_exact(nx).zip(along_x.chunks_exact_mut(mx)) {
-            max_shifted(out, row, s);
+        let mut along_x = Vec::with_capacity(mx * ny);
+        for row in self.data.chunks_exact(nx) {
+            max_shifted(&mut along_x, row, s);
         }
         // Along y the rows are shifted by s rows: the same operation on the whole array.
-        let mut data = vec![0u8; mx * my];
+        let mut data = Vec::with_capacity(mx * my);
         max_shifted(&mut data, &along_x, s * mx);
         Level {
             data,
@@ -86,13 +86,16 @@ impl Level {
     }
 }
 
-/// `out[a] = max(v[a − s], v[a])` for `a` in `0..v.len() + s`, a missing `v` being 0: in array
-/// indices, the pooled cell `a` of a level offset by `s` more than `v`'s.
-fn max_shifted(out: &mut [u8], v: &[u8], s: usize) {
-    out[..v.len()].copy_from_slice(v);
-    for (o, &x) in out[s..].iter_mut().zip(v) {
-        *o = (*o).max(x);
-    }
+/// Appends to `out` `max(v[a − s], v[a])` for `a` in `0..v.len() + s`, a missing `v` being 0:
+/// in array indices, the pooled cell `a` of a level offset by `s` more than `v`'s. Written
+/// once each, without zeroing the cells first.
+fn max_shifted(out: &mut Vec<u8>, v: &[u8], s: usize) {
+    let n = v.len();
+    let lead = s.min(n);
+    out.extend_from_slice(&v[..lead]);
+    out.extend(v[lead..].iter().zip(v).map(|(&a, &b)| a.max(b)));
+    out.extend(std::iter::repeat_n(0, s.saturating_sub(n)));
+    out.extend_from_slice(&v[n - lead..]);
 }
 
 /// The likelihood grid of one reference scan with its max-pooled pyramid (see the module doc).
@@ -254,7 +257,7 @@ impl LikelihoodGrid {
 
     /// The sum over `cells`, each shifted by `offset` and weighted by `weights`, at level
     /// `level`.
-    #[inline]
+    #[cfg(test)]
     pub(crate) fn sum(
         &self,
         level: u32,
@@ -336,4 +339,27 @@ pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>
         (sum + v * w, total + w)
     });
     mean_of(sum, total)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::max_shifted;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The pooled array is the definition's, shifts longer than the array included.
+        #[test]
+        fn max_shifted_is_the_max_of_the_array_and_its_shift(
+            v in prop::collection::vec(any::<u8>(), 0..40),
+            s in 0usize..50,
+        ) {
+            let at = |k: isize| usize::try_from(k).ok().and_then(|k| v.get(k)).copied().unwrap_or(0);
+            let expected: Vec<u8> = (0..(v.len() + s) as isize)
+                .map(|a| at(a).max(at(a - s as isize)))
+                .collect();
+            let mut out = vec![7];
+            max_shifted(&mut out, &v, s);
+            prop_assert_eq!(&out[1..], &expected[..]);
+        }
+    }
 }

@@ -308,6 +308,7 @@ pub struct GlobalWorkspace {
     points: Vec<Point2<f64>>,
     weights: Vec<u32>,
     rotations: Vec<f64>,
+    by_weight: Vec<(u32, Point2<f64>)>,
     buffers: Buffers,
 }
 
@@ -397,8 +398,9 @@ impl GlobalMatcher {
     }
 
     /// `source` made ready for searches within the window around `centre`, in the buffers of
-    /// `workspace` (held until it is dropped): its points and weights, the rotation candidates and the sorted top-level
-    /// nodes of the branch and bound, shared by [`Self::best`] and [`Self::best_above`].
+    /// `workspace` (held until it is dropped): its points and weights and the rotation
+    /// candidates, shared by [`Self::best`] and [`Self::best_above`] with the top-level nodes
+    /// of the branch and bound that they score.
     ///
     /// `Err` when `centre` is not finite, the source has no return, (histogram mode) its
     /// surface estimates are not one per return, or the rotation candidates would exceed
@@ -424,12 +426,24 @@ impl GlobalMatcher {
             points,
             weights,
             rotations,
+            by_weight,
             ..
         } = workspace;
+        // Heaviest (farthest) returns first: off the best poses they miss first, and the
+        // bounds' sums give up soonest (the sums, whole numbers, do not depend on the order).
+        by_weight.clear();
+        by_weight.extend(
+            source
+                .scan
+                .returns()
+                .iter()
+                .map(|r| (range_weight(r), r.point)),
+        );
+        by_weight.sort_by_key(|&(w, _)| std::cmp::Reverse(w));
         points.clear();
-        points.extend(source.scan.returns().iter().map(|r| r.point));
+        points.extend(by_weight.iter().map(|&(_, p)| p));
         weights.clear();
-        weights.extend(source.scan.returns().iter().map(range_weight));
+        weights.extend(by_weight.iter().map(|&(w, _)| w));
         if points.is_empty() {
             return Err(IcpError::TooFewPoints {
                 role: ScanRole::Source,
@@ -445,21 +459,32 @@ impl GlobalMatcher {
         let step_rad = self.params.angular_step_rad(max_range_m);
         self.rotation_candidates(source, centre_angle, step_rad, rotations)?;
         let total_weight = weights.iter().map(|&w| u64::from(w)).sum();
-        let mut prepared = SourceSearch {
+        let prepared = SourceSearch {
             workspace,
             centre,
             total_weight,
             lookups: 0,
+            top_floor: None,
             best: None,
             cleared: None,
         };
-        let (search, buffers) = self.split(&mut prepared);
-        prepared.lookups = search.top_level(buffers);
         Ok(prepared)
+    }
+
+    /// Scores into `prepared` the top-level nodes whose bounds exceed `floor`, unless those
+    /// of a floor no higher are there already.
+    fn top_above(&self, prepared: &mut SourceSearch<'_>, floor: u64) {
+        if prepared.top_floor.is_some_and(|f| f <= floor) {
+            return;
+        }
+        let (search, buffers) = self.split(prepared);
+        prepared.lookups += search.top_level(buffers, floor);
+        prepared.top_floor = Some(floor);
     }
 
     /// The best pose of `prepared` and its runner-up (the search's whole answer).
     pub fn best(&self, prepared: &mut SourceSearch<'_>) -> GlobalGuess {
+        self.top_above(prepared, 0);
         let known = prepared.best;
         let (search, buffers) = self.split(prepared);
         let best = known.unwrap_or_else(|| search.above(buffers, 0));
@@ -493,6 +518,7 @@ impl GlobalMatcher {
             weights,
             rotations,
             buffers,
+            ..
         } = &mut *prepared.workspace;
         let search = Search {
             grid: &self.grid,

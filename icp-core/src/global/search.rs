@@ -97,11 +97,10 @@ impl Search<'_> {
             })
     }
 
-    /// Scores the top-level nodes of every rotation into `buffers`, sorted best first, and
-    /// the headroom of the sums, that [`Self::above`] and [`Self::runner_up`] start from;
-    /// returns the cells read.
-    pub fn top_level(&self, buffers: &mut Buffers) -> u64 {
-        let n = self.points.len() as u64;
+    /// Scores the top-level nodes of every rotation whose bounds exceed `floor` into
+    /// `buffers`, sorted best first, and the headroom of the sums, that [`Self::above`] and
+    /// [`Self::runner_up`] start from (with a floor no lower); returns the cells read.
+    pub fn top_level(&self, buffers: &mut Buffers, floor: u64) -> u64 {
         let top_level = self.grid.depth();
         // The most the points from k on can add: their weights at full scale.
         buffers.headroom.clear();
@@ -113,22 +112,32 @@ impl Search<'_> {
         }
         buffers.top.clear();
         let w = self.window;
+        let mut read = 0;
         for rotation in 0..self.rotations.len() {
             self.discretise(rotation, &mut buffers.cells);
             for offset in self.blocks([-w, -w], top_level, [w, w]) {
-                buffers.top.push(Node {
-                    rotation: rotation as u32,
-                    level: top_level,
+                let above = self.grid.sum_above(
+                    top_level,
+                    &buffers.cells,
+                    self.weights,
+                    &buffers.headroom,
                     offset,
-                    sum: self
-                        .grid
-                        .sum(top_level, &buffers.cells, self.weights, offset),
-                });
+                    floor,
+                    &mut read,
+                );
+                if let Some(sum) = above {
+                    buffers.top.push(Node {
+                        rotation: rotation as u32,
+                        level: top_level,
+                        offset,
+                        sum,
+                    });
+                }
             }
         }
         // Best first; the sort is stable, so ties keep their generation order.
         buffers.top.sort_by_key(|node| std::cmp::Reverse(node.sum));
-        buffers.top.len() as u64 * n
+        read
     }
 
     /// The best pose whose sum exceeds `floor` (otherwise `rotation: None`, `sum: floor`),
@@ -268,7 +277,7 @@ impl Search<'_> {
     /// The best pose by branch and bound (see the module doc): the top level, then the
     /// descent above 0.
     pub fn run(&self, buffers: &mut Buffers) -> Best {
-        let top_lookups = self.top_level(buffers);
+        let top_lookups = self.top_level(buffers, 0);
         let mut best = self.above(buffers, 0);
         best.lookups += top_lookups;
         best
