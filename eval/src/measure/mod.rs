@@ -12,6 +12,7 @@ pub mod gate;
 pub mod outcome;
 pub mod record;
 pub mod reference;
+pub mod reference_noise;
 pub mod report;
 pub mod scaling;
 pub mod stats;

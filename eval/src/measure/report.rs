@@ -13,6 +13,7 @@ use crate::measure::consistency::ConsistencySummary;
 use crate::measure::outcome::FlagQuality;
 use crate::measure::record::PairRecord;
 use crate::measure::reference::{FlaggedStep, OffsetEstimate};
+use crate::measure::reference_noise::ReferenceNoise;
 use crate::measure::stats::Stats;
 use crate::measure::trajectory::{EvoMetrics, ReferenceTum};
 use crate::run::covariance::CovarianceMode;
@@ -208,6 +209,13 @@ pub struct ReferenceInfo {
     /// What `reference.tum` holds (`None`: no reference, no file).
     #[serde(default)]
     pub reference_tum: Option<ReferenceTum>,
+    /// The reference's own noise (`None`: no reference, ground truth, or too short to
+    /// estimate; see `noise_note`).
+    #[serde(default)]
+    pub noise: Option<ReferenceNoise>,
+    /// Why a measured reference's noise is not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_note: Option<String>,
 }
 
 /// The pairs every variant's statistics are taken over: those every variant registered
