@@ -27,6 +27,11 @@
 //! [`ORDERS_AGREE_RATIO`], the motion dominates: the smaller of the two is reported, as an
 //! upper bound of the noise (`upper_bound`), and the disagreement is said.
 //!
+//! Motion whose accelerations are random at the sampling (a robot turning tens of degrees
+//! between scans a second apart) looks like noise to both orders alike. What tells them apart
+//! is how the 2nd differences correlate from one step to the next ([`MAX_NOISE_LAG1`]): −2/3
+//! for noise, 0 for such motion. Above the threshold the figures are an upper bound too.
+//!
 //! Ground truth has no noise to estimate (`None`).
 
 use datasets::{Dataset, ReferenceKind};
@@ -63,7 +68,7 @@ impl ReferenceNoise {
     /// What the reference can resolve, in one line.
     pub fn floor_line(&self) -> String {
         format!(
-            "{}its own error in one step is {:.1} mm and {:.3}° (SOG {:.3} m/s, ΔCOG {:.3}°){}: \
+            "its own error in one step is {}{:.1} mm and {:.3}° (SOG {:.3} m/s, ΔCOG {:.3}°){}: \
              a difference between methods below that is the reference talking",
             if self.upper_bound { "at most " } else { "" },
             1e3 * self.step_trans_m,
@@ -105,6 +110,16 @@ pub fn nees_with_reference(
     nees(&pose_error(&est, truth), &(c + reference))
 }
 
+/// The 2nd differences of independent per-pose noise correlate −2/3 from one step to the next
+/// (`(1, −2, 1)` against itself shifted: −4/6), those of motion with random accelerations 0,
+/// of smooth motion more. Above this the motion's share of their variance exceeds a third,
+/// and the noise cannot be told from it: the figures are an upper bound. Noise correlated
+/// from pose to pose (lag-1 `ρ`) moves the −2/3 to −0.55 at `ρ = 0.5` and −0.52 at `ρ = 0.7`,
+/// still below. Chosen from these figures and checked on the synthetic harbour (noise
+/// recovered, not flagged; coarse steps flagged), on aces (turns of tens of degrees between
+/// scans a second apart: flagged) and marina; see `eval/tests/reference_noise.rs`.
+pub const MAX_NOISE_LAG1: f64 = -0.45;
+
 /// Fewest residuals of order 3 (poses − 3) from which a robust spread is taken.
 pub const MIN_RESIDUALS: usize = 20;
 
@@ -126,13 +141,17 @@ pub struct ReferenceNoise {
     /// True when orders 2 and 3 disagree: the motion dominates the differences and the
     /// figures are an upper bound of the noise, not an estimate.
     pub upper_bound: bool,
-    /// What disagrees, with the two orders' figures (`None` when they agree).
+    /// Why the figures are an upper bound: the orders that disagree, with their figures, and
+    /// the 2nd differences that do not correlate like noise (`None` when they are not).
     #[serde(default)]
-    pub orders_disagree: Option<String>,
+    pub why_upper_bound: Option<String>,
     /// Per-pose standard deviation per order `[2, 3]`: position (one coordinate), m.
     pub pose_sigma_m: [f64; 2],
     /// The same for the heading, degrees.
     pub pose_sigma_deg: [f64; 2],
+    /// The step-to-step correlation of the 2nd differences of x, y and the heading: −2/3 for
+    /// noise alone, 0 where random accelerations dominate, positive for smooth motion.
+    pub lag1_correlation: [f64; 3],
     /// Reference poses the estimate is taken over.
     pub poses: usize,
 }
@@ -229,12 +248,20 @@ pub fn estimate(poses: &[TimedPose]) -> Result<ReferenceNoise, ReferenceNoiseErr
             )
         })
     };
+    let lag1 = [&x, &y, &heading_deg].map(|v| lag1_correlation(&residuals(&t, v, 2)));
+    let moving = ["x", "y", "heading"]
+        .iter()
+        .zip(lag1)
+        .filter(|(_, c)| !(*c <= MAX_NOISE_LAG1))
+        .map(|(name, c)| format!("{name}: 2nd differences correlate {c:.2} from step to step"))
+        .collect::<Vec<String>>();
     let notes: Vec<String> = [
         disagree("position", "m", pose_sigma_m),
         disagree("heading", "deg", pose_sigma_deg),
     ]
     .into_iter()
     .flatten()
+    .chain(moving)
     .collect();
     // Order 3 where the orders agree (less biased by motion), else the smaller.
     let pick = |v: [f64; 2]| {
@@ -259,9 +286,10 @@ pub fn estimate(poses: &[TimedPose]) -> Result<ReferenceNoise, ReferenceNoiseErr
         sog_mps: std::f64::consts::SQRT_2 * sp / dt_s,
         dcog_deg: step_rot_deg,
         upper_bound: !notes.is_empty(),
-        orders_disagree: (!notes.is_empty()).then(|| notes.join("; ")),
+        why_upper_bound: (!notes.is_empty()).then(|| notes.join("; ")),
         pose_sigma_m,
         pose_sigma_deg,
+        lag1_correlation: lag1,
         poses: kept.len(),
     })
 }
@@ -286,6 +314,15 @@ fn residuals(t: &[f64], v: &[f64], order: usize) -> Vec<f64> {
         })
         .filter(|r| r.is_finite())
         .collect()
+}
+
+/// The robust step-to-step correlation of `r`: `(s₊² − s₋²)/(s₊² + s₋²)` with `s±` the robust
+/// spread of `r_k ± r_{k+1}` (NaN with fewer than two values).
+fn lag1_correlation(r: &[f64]) -> f64 {
+    let (plus, minus): (Vec<f64>, Vec<f64>) =
+        r.windows(2).map(|w| (w[0] + w[1], w[0] - w[1])).unzip();
+    let (p2, m2) = (robust_sd(&plus).powi(2), robust_sd(&minus).powi(2));
+    (p2 - m2) / (p2 + m2)
 }
 
 /// `1.4826 · MAD` about the median (NaN when empty).
@@ -316,6 +353,19 @@ mod tests {
         assert!((r2[0].abs() - (1.0 - 8.0 + 2.0f64).abs() / 6f64.sqrt()).abs() < 1e-12);
         let r3 = residuals(&t, &v, 3);
         assert!((r3[0].abs() - (-1.0 + 12.0 - 6.0 + 8.0f64).abs() / 20f64.sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn alternating_values_correlate_minus_one() {
+        let r: Vec<f64> = (0..21)
+            .map(|k| if k % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        assert_eq!(lag1_correlation(&r), -1.0);
+        let same = vec![2.0; 10];
+        assert!(
+            lag1_correlation(&same).is_nan(),
+            "no spread: no correlation"
+        );
     }
 
     #[test]

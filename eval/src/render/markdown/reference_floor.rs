@@ -45,7 +45,7 @@ pub fn nees_twins_md(out: &mut String, report: &RunReport) {
     let _ = writeln!(out, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
     let cells = |c: Option<&Consistency>| {
         c.map_or_else(
-            || "|  |  | ".to_owned(),
+            || "|  |  |  ".to_owned(),
             |c| {
                 format!(
                     "| {} | {:.3} | {:.3} ",
