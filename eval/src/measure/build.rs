@@ -288,6 +288,7 @@ pub fn build(
         pairs: records,
         trajectories,
         reference_trajectory,
+        cycles: Vec::new(),
     }
 }
 
@@ -362,6 +363,7 @@ fn summarize(
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
         suspect_pairs: flagged(rows, StatusKind::Suspect),
+        inconsistent_pairs: flagged(rows, StatusKind::Inconsistent),
         trajectory: TrajectoryStats {
             heading_rms_error_deg: {
                 let e: Vec<f64> = rows.iter().filter_map(|r| r.hdg_chained_err_deg).collect();
@@ -381,6 +383,7 @@ fn summarize(
         timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         failures,
         consistency: None,
+        cycles: None,
     }
 }
 

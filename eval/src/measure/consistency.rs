@@ -14,7 +14,7 @@
 //! Where the reference is not a pose (marina: GNSS speed and course), the standardised error
 //! `z = e/σ` of SOG and ΔCOG is reported: its spread (1 if `σ` is honest) and the fraction with
 //! `|z| ≤ 2` (95.4 % for a Gaussian). The reference is noisy itself, so `e` carries its noise
-//! too: its own standard error ([`crate::measure::reference_noise`]) is added,
+//! too: its own standard error (`reference.noise`, the `reference_noise` module) is added,
 //! `z = e/√(σ² + σ_ref²)`, beside the raw one; the NEES gets the same twin where the
 //! reference is a measured rigid pose, and a twin over the pairs whose status is `ok` alone.
 
@@ -256,7 +256,7 @@ impl Standardised {
 }
 
 /// The reference's own noise in the movement parameters, from its one estimate
-/// (`reference.noise`, [`crate::measure::reference_noise`]).
+/// (`reference.noise`, made by the `reference_noise` module).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceNoise {
     /// SOG, m/s.

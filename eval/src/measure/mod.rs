@@ -8,6 +8,7 @@ pub mod bound;
 pub mod build;
 pub mod compare;
 pub mod consistency;
+pub mod cycles;
 pub mod gate;
 pub mod outcome;
 pub mod record;

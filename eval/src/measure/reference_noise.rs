@@ -252,7 +252,8 @@ pub fn estimate(poses: &[TimedPose]) -> Result<ReferenceNoise, ReferenceNoiseErr
     let moving = ["x", "y", "heading"]
         .iter()
         .zip(lag1)
-        .filter(|(_, c)| !(*c <= MAX_NOISE_LAG1))
+        // NaN (no spread) cannot show noise either.
+        .filter(|(_, c)| c.is_nan() || *c > MAX_NOISE_LAG1)
         .map(|(name, c)| format!("{name}: 2nd differences correlate {c:.2} from step to step"))
         .collect::<Vec<String>>();
     let notes: Vec<String> = [

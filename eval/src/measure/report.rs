@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::measure::bound::{BoundSummary, OverBound};
 use crate::measure::consistency::ConsistencySummary;
+use crate::measure::cycles::{CycleRecord, CycleSummary};
 use crate::measure::outcome::FlagQuality;
 use crate::measure::record::PairRecord;
 use crate::measure::reference::{FlaggedStep, OffsetEstimate};
@@ -112,6 +113,10 @@ pub struct VariantSummary {
     /// their numbers stay in the statistics).
     #[serde(default)]
     pub suspect_pairs: Vec<usize>,
+    /// Pairs registered but flagged inconsistent by the loops across lags (`--lags`; failures
+    /// of the variant; their numbers stay in the statistics).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inconsistent_pairs: Vec<usize>,
     /// Fraction of the registered pairs that converged (`None` for an external estimator:
     /// nothing is iterated here).
     pub converged_fraction: Option<f64>,
@@ -143,6 +148,9 @@ pub struct VariantSummary {
     /// SOG and ΔCOG errors (see [`crate::measure::consistency`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub consistency: Option<ConsistencySummary>,
+    /// The loops across lags (`--lags` above 1; see [`crate::measure::cycles`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cycles: Option<CycleSummary>,
 }
 
 /// What the dataset was.
@@ -313,4 +321,7 @@ pub struct RunReport {
     /// `reference.tum` with the trajectories' timestamps).
     #[serde(skip)]
     pub reference_trajectory: Vec<Option<Isometry2<f64>>>,
+    /// Every loop across lags, per variant (written to `cycles.csv`; empty without `--lags`).
+    #[serde(skip)]
+    pub cycles: Vec<CycleRecord>,
 }

@@ -6,6 +6,7 @@
 pub mod covariance;
 pub mod estimates;
 pub mod init;
+pub mod lags;
 pub mod runner;
 pub mod sampled;
 pub mod setup;

@@ -36,6 +36,18 @@ pub enum PairStatus {
         /// What the global search saw.
         check: GlobalCheck,
     },
+    /// Registered, but it disagrees with the two loops through its neighbours across lag 2
+    /// (`--lags`), which agree with each other (the loops are measured in `measure/cycles.rs`).
+    Inconsistent {
+        /// How far it is from the nearer of the two, m.
+        apart_m: f64,
+        /// …and degrees.
+        apart_deg: f64,
+        /// How far the two are from each other, m.
+        alternatives_apart_m: f64,
+        /// …and degrees.
+        alternatives_apart_deg: f64,
+    },
     /// No registration: the method refused the input or broke down.
     Failed {
         /// The error, as the method said it.
@@ -55,6 +67,8 @@ pub enum StatusKind {
     NoOverlap,
     /// See [`PairStatus::Suspect`].
     Suspect,
+    /// See [`PairStatus::Inconsistent`].
+    Inconsistent,
     /// See [`PairStatus::Failed`].
     Failed,
 }
@@ -86,6 +100,7 @@ impl PairStatus {
             Self::Degenerate { .. } => StatusKind::Degenerate,
             Self::NoOverlap { .. } => StatusKind::NoOverlap,
             Self::Suspect { .. } => StatusKind::Suspect,
+            Self::Inconsistent { .. } => StatusKind::Inconsistent,
             Self::Failed { .. } => StatusKind::Failed,
         }
     }
@@ -120,6 +135,15 @@ impl fmt::Display for PairStatus {
                     check.best_score, check.result_score
                 )
             }
+            Self::Inconsistent {
+                apart_m,
+                apart_deg,
+                alternatives_apart_m,
+                alternatives_apart_deg,
+            } => write!(
+                f,
+                "{apart_m:.2} m and {apart_deg:.1}° from both loops through its neighbours across lag 2, which agree within {alternatives_apart_m:.2} m and {alternatives_apart_deg:.1}°"
+            ),
             Self::Failed { error } => write!(f, "{error}"),
         }
     }
