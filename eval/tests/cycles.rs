@@ -93,15 +93,31 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
     let flags = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
     let flagged: Vec<usize> = (0..flags.len()).filter(|&i| flags[i].is_some()).collect();
     assert_eq!(flagged, vec![6], "{flags:?}");
-    let Some(PairStatus::Inconsistent { apart_m, .. }) = &flags[6] else {
+    let Some(PairStatus::Inconsistent {
+        apart_m,
+        alternatives_agree,
+        ..
+    }) = &flags[6]
+    else {
         panic!("{flags:?}")
     };
     assert!((apart_m - 0.5).abs() < 0.05, "{apart_m}");
+    assert!(
+        alternatives_agree,
+        "its neighbours' loops agree: pair 6 alone is wrong"
+    );
+    // A smaller error (0.2 m, 1°) is not wrong by the field's thresholds: not flagged.
+    let reg = runs.per_variant[0][6].result.as_mut().unwrap();
+    reg.t_ref_src.translation.vector.x -= 0.3;
+    reg.t_ref_src.rotation *= nalgebra::UnitComplex::new(-1f64.to_radians());
+    let flags = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
+    assert!(flags.iter().all(Option::is_none), "{flags:?}");
     assert!(PairStatus::Inconsistent {
         apart_m: 0.5,
         apart_deg: 2.0,
         alternatives_apart_m: 0.01,
-        alternatives_apart_deg: 0.1
+        alternatives_apart_deg: 0.1,
+        alternatives_agree: true,
     }
     .is_failure());
 }

@@ -36,8 +36,9 @@ pub enum PairStatus {
         /// What the global search saw.
         check: GlobalCheck,
     },
-    /// Registered, but it disagrees with the two loops through its neighbours across lag 2
-    /// (`--lags`), which agree with each other (the loops are measured in `measure/cycles.rs`).
+    /// Registered, but neither loop through its neighbours across lag 2 closes (`--lags`):
+    /// it is more than 0.3 m or 3° from both alternatives (the loops are measured in
+    /// `measure/cycles.rs`).
     Inconsistent {
         /// How far it is from the nearer of the two, m.
         apart_m: f64,
@@ -47,6 +48,8 @@ pub enum PairStatus {
         alternatives_apart_m: f64,
         /// …and degrees.
         alternatives_apart_deg: f64,
+        /// Whether they agree (within 0.1 m and 1°): then this registration alone is wrong.
+        alternatives_agree: bool,
     },
     /// No registration: the method refused the input or broke down.
     Failed {
@@ -140,9 +143,11 @@ impl fmt::Display for PairStatus {
                 apart_deg,
                 alternatives_apart_m,
                 alternatives_apart_deg,
+                alternatives_agree,
             } => write!(
                 f,
-                "{apart_m:.2} m and {apart_deg:.1}° from both loops through its neighbours across lag 2, which agree within {alternatives_apart_m:.2} m and {alternatives_apart_deg:.1}°"
+                "{apart_m:.2} m and {apart_deg:.1}° from the nearer of the two loops through its neighbours across lag 2, which {} each other ({alternatives_apart_m:.2} m and {alternatives_apart_deg:.1}° apart)",
+                if *alternatives_agree { "agree with" } else { "disagree with" }
             ),
             Self::Failed { error } => write!(f, "{error}"),
         }
