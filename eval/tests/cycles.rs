@@ -51,9 +51,15 @@ fn consistent_registrations_close_their_loops_and_are_not_flagged() {
         .pairs
         .iter()
         .all(|r| r.status != StatusKind::Inconsistent));
-    // Lag 1 changes nothing: no loops, no cycles field.
+    let md = eval::render::markdown::table_md(&report);
+    assert!(
+        md.contains("## Loops across lags") && md.contains("| HD_ICP | 12 |"),
+        "{md}"
+    );
+    // Lag 1 changes nothing: no loops, no cycles field, no section.
     let plain = evaluate(&ds, &setup(1), &ProgressBar::hidden()).unwrap();
     assert!(plain.cycles.is_empty() && plain.variants.iter().all(|v| v.cycles.is_none()));
+    assert!(!eval::render::markdown::table_md(&plain).contains("Loops across lags"));
     // The wall times aside.
     let untimed = |rows: &[eval::measure::record::PairRecord]| {
         let mut rows = rows.to_vec();

@@ -14,6 +14,7 @@ use crate::run::setup::ReferenceChecks;
 pub mod basin;
 pub mod compare;
 pub mod consistency;
+pub mod cycles;
 pub mod gate;
 pub mod reference_floor;
 pub mod scaling;
@@ -534,6 +535,7 @@ pub fn table_md(report: &RunReport) -> String {
     heading_md(&mut out, report);
     trajectory_errors_md(&mut out, report);
     failures_md(&mut out, report);
+    cycles::cycles_md(&mut out, report);
     for s in &d.skipped_pairs {
         let _ = writeln!(
             out,
