@@ -185,3 +185,24 @@ fn exact_ground_truth_has_no_noise_to_estimate() {
     .unwrap();
     assert!(eval::measure::reference_noise::of_dataset(&ds).is_none());
 }
+
+#[test]
+fn a_measured_reference_too_short_for_its_noise_says_so() {
+    let mut ds = generate(&Scenario {
+        n_scans: 12,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    ds.reference_kind = Some(datasets::ReferenceKind::SlamCorrected);
+    let setup = eval::EvalSetup::from_specs(
+        &[icp_core::variants::builtin("PL_ICP").unwrap()],
+        eval::OffsetChoice::Fixed(0),
+    )
+    .unwrap();
+    let report = eval::evaluate(&ds, &setup, &indicatif::ProgressBar::hidden()).unwrap();
+    assert_eq!(report.reference.noise, None);
+    let note = report.reference.noise_note.as_deref().unwrap();
+    assert!(note.contains("12 poses") && note.contains("at least 23"), "{note}");
+    let md = eval::render::markdown::table_md(&report);
+    assert!(md.contains("The reference's own noise is not estimated"), "{md}");
+}
