@@ -202,7 +202,13 @@ fn a_measured_reference_too_short_for_its_noise_says_so() {
     let report = eval::evaluate(&ds, &setup, &indicatif::ProgressBar::hidden()).unwrap();
     assert_eq!(report.reference.noise, None);
     let note = report.reference.noise_note.as_deref().unwrap();
-    assert!(note.contains("12 poses") && note.contains("at least 23"), "{note}");
+    assert!(
+        note.contains("12 poses") && note.contains("at least 23"),
+        "{note}"
+    );
     let md = eval::render::markdown::table_md(&report);
-    assert!(md.contains("The reference's own noise is not estimated"), "{md}");
+    assert!(
+        md.contains("The reference's own noise is not estimated"),
+        "{md}"
+    );
 }
