@@ -50,6 +50,7 @@ fn main() -> anyhow::Result<()> {
         start_gate: Default::default(),
         covariance: Default::default(),
         estimates: Vec::new(),
+        lags: 1,
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

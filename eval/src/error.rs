@@ -55,6 +55,9 @@ pub enum EvalError {
     /// An external estimates file cannot be used.
     #[error(transparent)]
     Estimates(#[from] EstimatesError),
+    /// `--lags` outside what the run can register.
+    #[error("--lags {lags}: {why}")]
+    Lags { lags: usize, why: String },
     /// The dataset has no pair of consecutive scans at all.
     #[error("{dataset} has {scans} scan(s): no pair of consecutive scans to register")]
     NothingToRegister { dataset: String, scans: usize },

@@ -6,14 +6,18 @@ use indicatif::ProgressBar;
 
 use crate::error::EvalError;
 use crate::measure::build;
+use crate::measure::cycles;
 use crate::measure::report::RunReport;
 use crate::run::covariance::CovarianceMode;
+use crate::run::lags;
 use crate::run::restarts;
 use crate::run::runner;
 use crate::run::sampled;
 use crate::run::setup::{checked_pairs, EvalSetup, GlobalChecks};
+use crate::run::status::PairStatus;
 
-/// Runs every variant of `setup` over every consecutive pair of `ds` and builds the report.
+/// Runs every variant of `setup` over every consecutive pair of `ds` (and across lags, with
+/// `setup.lags` above 1: their loops flag inconsistent registrations) and builds the report.
 pub fn evaluate(
     ds: &Dataset,
     setup: &EvalSetup,
@@ -28,7 +32,10 @@ pub fn evaluate(
         global: &setup.global,
         check: setup.global_check == GlobalChecks::On,
     };
+    let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
+    progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
+    let lagged = lags::run(ds, &pairs, setup.lags, methods, &plan, progress)?;
     if setup.covariance == CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
@@ -36,5 +43,22 @@ pub fn evaluate(
         restarts::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
     progress.finish_and_clear();
-    Ok(build::build(ds, &pairs, skipped, setup, &runs))
+    let Some(lagged) = lagged else {
+        return Ok(build::build(ds, &pairs, skipped, setup, &runs));
+    };
+    // The loops' flags join the others before the records are made.
+    let checked = cycles::check(setup, &runs, &lagged);
+    for (variant, flags) in runs.per_variant.iter_mut().zip(&checked.flags) {
+        for (run, flag) in variant.iter_mut().zip(flags) {
+            if let (Some(flag), PairStatus::Ok) = (flag, &run.status) {
+                run.status = flag.clone();
+            }
+        }
+    }
+    let mut report = build::build(ds, &pairs, skipped, setup, &runs);
+    for (v, summary) in report.variants.iter_mut().zip(checked.summaries) {
+        v.cycles = Some(summary);
+    }
+    report.cycles = checked.records;
+    Ok(report)
 }

@@ -189,6 +189,7 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
         start_gate: Default::default(),
         covariance: Default::default(),
         estimates: Vec::new(),
+        lags: 1,
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.population.pairs, 6);

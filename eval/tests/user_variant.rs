@@ -42,6 +42,7 @@ fn a_user_variant_runs_compares_and_describes_itself() {
         start_gate: Default::default(),
         covariance: Default::default(),
         estimates: Vec::new(),
+        lags: 1,
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.variants[1].name, "RA_ICP");

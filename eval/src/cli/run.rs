@@ -63,6 +63,11 @@ pub(crate) struct RunArgs {
     /// (`source,reference,tx_m,ty_m,theta_deg`, t_ref_src as in pairs.csv). Repeatable.
     #[arg(long)]
     pub(crate) estimates: Vec<EstimatesSpec>,
+    /// Also register every scan k to scan k+ℓ for 2 ≤ ℓ ≤ LAGS, and flag a consecutive
+    /// registration that disagrees with both loops through its neighbours (`cycles.csv`;
+    /// 1: consecutive pairs only).
+    #[arg(long, default_value_t = 1)]
+    pub(crate) lags: usize,
     /// Output directory.
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -94,6 +99,17 @@ impl RunArgs {
         })
     }
 
+    /// An error when `--lags` asks for loops a sharded run does not make yet.
+    pub(crate) fn lags_unsharded(&self) -> Result<()> {
+        if self.lags != 1 {
+            anyhow::bail!(
+                "--lags {} with --shard: registrations across lags are not sharded yet; run without --shard",
+                self.lags
+            );
+        }
+        Ok(())
+    }
+
     /// The global search's parameters from the options.
     pub(crate) fn global(&self) -> Result<GlobalParams> {
         let params = GlobalParams {
@@ -115,10 +131,11 @@ pub(crate) fn run_one(args: RunArgs) -> Result<ExitCode> {
     let ds = load_dataset(&args.data)?;
     let specs = resolve_variants(&args.variants, &ds)?;
     if let Some(shard) = shard_of(&args.shard)? {
+        args.lags_unsharded()?;
         let work = Work::Run(args.run_options()?);
         return run_shard_cmd(&ds, specs, work, shard, &args.out, &args.common);
     }
-    let setup = args.run_options()?.setup(&specs, &ds)?;
+    let setup = args.run_options()?.setup(&specs, &ds)?.with_lags(args.lags);
     note_estimates(&setup);
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", table_md(&report));

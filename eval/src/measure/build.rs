@@ -14,6 +14,7 @@ use crate::measure::outcome;
 use crate::measure::outcome::FlagQuality;
 use crate::measure::record::{record, PairRecord};
 use crate::measure::reference;
+use crate::measure::reference_noise;
 use crate::measure::report::*;
 use crate::measure::stats::{median_p95, Stats};
 use crate::measure::trajectory;
@@ -119,6 +120,9 @@ pub fn build(
         .map(|i| runs.iter().all(|rs| rs[i].result.is_ok()))
         .collect();
     let rigid = ds.rigid_reference();
+    let noise = reference_noise::of_dataset(ds);
+    let noise_ok = noise.as_ref().and_then(|n| n.as_ref().ok());
+    let reference_step = noise_ok.filter(|_| rigid).map(|n| n.step_covariance());
     let (reference_trajectory, reference_tum) =
         trajectory::reference_trajectory(ds, pairs, applied);
     let mut records = Vec::new();
@@ -153,6 +157,11 @@ pub fn build(
                 setup.covariance,
                 inflation,
             );
+            if let (Some(step), Some(truth)) = (&reference_step, refs[i].and_then(|r| r.t_ref_src))
+            {
+                rows[i].nees_with_reference_noise =
+                    reference_noise::nees_with_reference(&rows[i], &truth, step);
+            }
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
         summaries.push(summarize(
@@ -164,7 +173,10 @@ pub fn build(
             trajectories.last().expect("just pushed"),
             rigid,
         ));
-        if let (Some(kind), Some(summary)) = (reference_tum, summaries.last_mut()) {
+        // A reference that is not one rigid frame (GNSS positions beside a separate heading)
+        // has no trajectory to align to: no ATE or RPE against it (the note says why).
+        if let (Some(kind), Some(summary)) = (reference_tum.filter(|_| rigid), summaries.last_mut())
+        {
             let traj = trajectories.last().expect("just pushed");
             let evo = trajectory::evo_metrics(traj, &reference_trajectory, kind);
             summary.trajectory.ate_rmse_m = evo.as_ref().map(|e| e.ate_trans_m.rmse);
@@ -177,11 +189,10 @@ pub fn build(
                 setup.covariance,
                 inflation,
                 // Ground truth carries no noise of its own to estimate.
-                if rigid {
-                    None
-                } else {
-                    consistency::reference_noise(&rows)
-                },
+                noise_ok.map(|n| consistency::ReferenceNoise {
+                    sog_mps: n.sog_mps,
+                    dcog_deg: n.dcog_deg,
+                }),
             );
         }
         records.extend(rows);
@@ -240,6 +251,11 @@ pub fn build(
             checks: setup.reference_checks,
             flagged_pairs: flagged,
             reference_tum,
+            noise_note: match &noise {
+                Some(Err(e)) => Some(e.to_string()),
+                _ => None,
+            },
+            noise: noise.and_then(Result::ok),
         },
         bound: bound::summarize(&bounds),
         population: Population {
@@ -274,6 +290,7 @@ pub fn build(
         pairs: records,
         trajectories,
         reference_trajectory,
+        cycles: Vec::new(),
     }
 }
 
@@ -348,6 +365,7 @@ fn summarize(
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
         suspect_pairs: flagged(rows, StatusKind::Suspect),
+        inconsistent_pairs: flagged(rows, StatusKind::Inconsistent),
         trajectory: TrajectoryStats {
             heading_rms_error_deg: {
                 let e: Vec<f64> = rows.iter().filter_map(|r| r.hdg_chained_err_deg).collect();
@@ -367,6 +385,7 @@ fn summarize(
         timing: median_p95(&times).map(|(median_us, p95_us)| Timing { median_us, p95_us }),
         failures,
         consistency: None,
+        cycles: None,
     }
 }
 
@@ -468,7 +487,11 @@ fn trajectory_stats(
         (None, _) => (
             None,
             None,
-            Some("the reference is not a rigid 2D pose of the scanner".to_owned()),
+            Some(
+                "the reference is not a rigid 2D pose of the scanner: no drift, ATE or RPE \
+                 against it (its positions and heading are not one frame)"
+                    .to_owned(),
+            ),
         ),
     };
     TrajectoryStats {

@@ -14,9 +14,9 @@
 //! Where the reference is not a pose (marina: GNSS speed and course), the standardised error
 //! `z = e/σ` of SOG and ΔCOG is reported: its spread (1 if `σ` is honest) and the fraction with
 //! `|z| ≤ 2` (95.4 % for a Gaussian). The reference is noisy itself, so `e` carries its noise
-//! too: [`ReferenceNoise`] estimates the reference's own standard error from the spread of its
-//! successive differences, and the adjusted `z = e/√(σ² + σ_ref²)` is reported beside the raw
-//! one.
+//! too: its own standard error (`reference.noise`, the `reference_noise` module) is added,
+//! `z = e/√(σ² + σ_ref²)`, beside the raw one; the NEES gets the same twin where the
+//! reference is a measured rigid pose, and a twin over the pairs whose status is `ok` alone.
 
 use icp_core::{Covariance, MovementSigmas, Registration};
 use nalgebra::{Isometry2, Matrix3, Vector3};
@@ -223,34 +223,14 @@ impl Standardised {
     }
 }
 
-/// The reference's own noise, estimated from its successive differences: for a quantity that
-/// changes slowly between pairs, `x_{i+1} − x_i` has the variance `2σ_ref²` plus the true
-/// change, so `σ_ref ≈ 1.4826 · MAD(Δx)/√2` is an upper estimate (robust to the steps flagged
-/// implausible).
+/// The reference's own noise in the movement parameters, from its one estimate
+/// (`reference.noise`, made by the `reference_noise` module).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ReferenceNoise {
     /// SOG, m/s.
     pub sog_mps: f64,
     /// ΔCOG, degrees.
     pub dcog_deg: f64,
-}
-
-/// `1.4826 · MAD(Δx)/√2` of the successive differences of `x` (pairs in order; `None` where
-/// the reference is absent or implausible); `None` with fewer than 3 differences.
-pub fn successive_noise(x: &[Option<f64>]) -> Option<f64> {
-    let mut d: Vec<f64> = x
-        .windows(2)
-        .filter_map(|w| Some(w[1]? - w[0]?))
-        .filter(|v| v.is_finite())
-        .collect();
-    if d.len() < 3 {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    let med = crate::measure::stats::quantile_sorted(&d, 0.5);
-    let mut dev: Vec<f64> = d.iter().map(|v| (v - med).abs()).collect();
-    dev.sort_by(f64::total_cmp);
-    Some(1.4826 * crate::measure::stats::quantile_sorted(&dev, 0.5) / std::f64::consts::SQRT_2)
 }
 
 /// What the consistency section of a variant's summary holds.
@@ -263,6 +243,13 @@ pub struct ConsistencySummary {
     /// NEES figures, where the reference is a rigid pose.
     #[serde(default)]
     pub nees: Option<Consistency>,
+    /// The same with the reference's step covariance added to each pair's, where the
+    /// reference is a measured rigid pose.
+    #[serde(default)]
+    pub nees_with_reference_noise: Option<Consistency>,
+    /// `nees` over the pairs whose status is `ok` alone: how the pairs nothing flagged fare.
+    #[serde(default)]
+    pub nees_unflagged: Option<Consistency>,
     /// SOG errors over their standard errors (pairs with a plausible reference).
     #[serde(default)]
     pub sog_z: Option<Standardised>,
@@ -321,19 +308,6 @@ pub fn fill(
     row.nees = truth.and_then(|t| nees(&pose_error(&reg.t_ref_src, &t), &c));
 }
 
-/// The reference's noise over the pairs with a plausible reference, in pair order.
-pub fn reference_noise(rows: &[PairRecord]) -> Option<ReferenceNoise> {
-    let pick = |f: fn(&PairRecord) -> Option<f64>| -> Vec<Option<f64>> {
-        rows.iter()
-            .map(|r| if r.ref_plausible { f(r) } else { None })
-            .collect()
-    };
-    Some(ReferenceNoise {
-        sog_mps: successive_noise(&pick(|r| r.sog_ref_mps))?,
-        dcog_deg: successive_noise(&pick(|r| r.dcog_ref_deg))?,
-    })
-}
-
 /// A variant's consistency figures over its `rows` registered by every variant (the pairs
 /// the other statistics take); `None` with [`CovarianceMode::Off`].
 pub fn summarize(
@@ -375,6 +349,25 @@ pub fn summarize(
             1.0
         },
         nees: Consistency::of(&nees, unbounded),
+        nees_with_reference_noise: Consistency::of(
+            &common
+                .iter()
+                .filter_map(|r| r.nees_with_reference_noise)
+                .collect::<Vec<f64>>(),
+            unbounded,
+        ),
+        nees_unflagged: Consistency::of(
+            &common
+                .iter()
+                .filter(|r| r.status == crate::run::status::StatusKind::Ok)
+                .filter_map(|r| r.nees)
+                .collect::<Vec<f64>>(),
+            common
+                .iter()
+                .filter(|r| r.status == crate::run::status::StatusKind::Ok)
+                .filter(|r| r.cov_status == "unbounded")
+                .count(),
+        ),
         sog_z: z(|r| r.sog_err_mps, |r| r.sog_sigma_mps, None),
         sog_z_with_reference_noise: reference
             .and_then(|n| z(|r| r.sog_err_mps, |r| r.sog_sigma_mps, Some(n.sog_mps))),
@@ -434,23 +427,12 @@ mod tests {
     }
 
     #[test]
-    fn standardised_and_reference_noise() {
+    fn standardised_by_hand() {
         let z = Standardised::of(&[-3.0, -1.0, 0.0, 1.0, 3.0]).unwrap();
         assert_eq!(z.mean, 0.0);
         assert!((z.sd - 5f64.sqrt()).abs() < 1e-12);
         assert!((z.within_2sigma_fraction - 0.6).abs() < 1e-12);
         // |z − 0| = 3, 1, 0, 1, 3: median 1.
         assert!((z.mad_sd - 1.4826).abs() < 1e-12);
-        // Alternating ±0.1 around a constant: the differences are −0.2, +0.2, … (four of
-        // each: median 0, MAD 0.2).
-        let x: Vec<Option<f64>> = (0..9)
-            .map(|i| Some(if i % 2 == 0 { 1.1 } else { 0.9 }))
-            .collect();
-        let s = successive_noise(&x).unwrap();
-        assert!(
-            (s - 1.4826 * 0.2 / std::f64::consts::SQRT_2).abs() < 1e-9,
-            "{s}"
-        );
-        assert_eq!(successive_noise(&[Some(1.0), None, Some(2.0)]), None);
     }
 }

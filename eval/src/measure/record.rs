@@ -146,6 +146,10 @@ pub struct PairRecord {
     /// NEES of `(tx, ty, θ)` against the reference, where it is a rigid pose.
     #[serde(default)]
     pub nees: Option<f64>,
+    /// The same with the reference's own step covariance added, where the reference is a
+    /// measured rigid pose (in `summary.json` only, not a `pairs.csv` column).
+    #[serde(skip)]
+    pub nees_with_reference_noise: Option<f64>,
     /// Wall time of the registration, its scans' surface estimates aside, µs (not
     /// reproducible; last column so checks can drop it; empty for an external estimate).
     pub time_us: Option<f64>,
@@ -229,6 +233,7 @@ pub fn record(
         dcog_sigma_deg: None,
         rot_sigma_dps: None,
         nees: None,
+        nees_with_reference_noise: None,
         time_us: run.time_us,
     }
 }

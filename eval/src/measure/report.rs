@@ -10,9 +10,11 @@ use serde::{Deserialize, Serialize};
 
 use crate::measure::bound::{BoundSummary, OverBound};
 use crate::measure::consistency::ConsistencySummary;
+use crate::measure::cycles::{CycleRecord, CycleSummary};
 use crate::measure::outcome::FlagQuality;
 use crate::measure::record::PairRecord;
 use crate::measure::reference::{FlaggedStep, OffsetEstimate};
+use crate::measure::reference_noise::ReferenceNoise;
 use crate::measure::stats::Stats;
 use crate::measure::trajectory::{EvoMetrics, ReferenceTum};
 use crate::run::covariance::CovarianceMode;
@@ -111,6 +113,10 @@ pub struct VariantSummary {
     /// their numbers stay in the statistics).
     #[serde(default)]
     pub suspect_pairs: Vec<usize>,
+    /// Pairs registered but flagged inconsistent by the loops across lags (`--lags`; failures
+    /// of the variant; their numbers stay in the statistics).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub inconsistent_pairs: Vec<usize>,
     /// Fraction of the registered pairs that converged (`None` for an external estimator:
     /// nothing is iterated here).
     pub converged_fraction: Option<f64>,
@@ -142,6 +148,9 @@ pub struct VariantSummary {
     /// SOG and ΔCOG errors (see [`crate::measure::consistency`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub consistency: Option<ConsistencySummary>,
+    /// The loops across lags (`--lags` above 1; see [`crate::measure::cycles`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cycles: Option<CycleSummary>,
 }
 
 /// What the dataset was.
@@ -208,6 +217,13 @@ pub struct ReferenceInfo {
     /// What `reference.tum` holds (`None`: no reference, no file).
     #[serde(default)]
     pub reference_tum: Option<ReferenceTum>,
+    /// The reference's own noise (`None`: no reference, ground truth, or too short to
+    /// estimate; see `noise_note`).
+    #[serde(default)]
+    pub noise: Option<ReferenceNoise>,
+    /// Why a measured reference's noise is not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_note: Option<String>,
 }
 
 /// The pairs every variant's statistics are taken over: those every variant registered
@@ -305,4 +321,7 @@ pub struct RunReport {
     /// `reference.tum` with the trajectories' timestamps).
     #[serde(skip)]
     pub reference_trajectory: Vec<Option<Isometry2<f64>>>,
+    /// Every loop across lags, per variant (written to `cycles.csv`; empty without `--lags`).
+    #[serde(skip)]
+    pub cycles: Vec<CycleRecord>,
 }

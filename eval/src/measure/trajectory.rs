@@ -89,12 +89,18 @@ pub fn reference_trajectory(
 
 /// The ATE and RPE of `estimate` against `reference` (pose i with pose i; poses without a
 /// reference left out, as evo's association by timestamp leaves them out). `None` when the
-/// alignment is not defined (fewer than two poses, or all at one point).
+/// alignment is not defined (fewer than two poses, or all at one point), and against a
+/// reference of positions only: its positions and heading are not one rigid frame (marina's
+/// GNSS positions advance along +x whatever the heading), so no chained trajectory aligns to
+/// it and an ATE would measure that mismatch (about 21 m on marina), not the estimate.
 pub fn evo_metrics(
     estimate: &[(f64, Isometry2<f64>)],
     reference: &[Option<Isometry2<f64>>],
     kind: ReferenceTum,
 ) -> Option<EvoMetrics> {
+    if kind == ReferenceTum::PositionsOnly {
+        return None;
+    }
     let (est, refs): (Vec<Isometry2<f64>>, Vec<Isometry2<f64>>) = estimate
         .iter()
         .zip(reference)
@@ -103,7 +109,6 @@ pub fn evo_metrics(
     let (_, ate) = metrics::ate(&est, &refs)?;
     let mirror_fits_better =
         metrics::reflection_fits_better(&metrics::positions(&est), &metrics::positions(&refs));
-    let rigid = kind == ReferenceTum::RigidPose;
     let rpe = |pairs: &[(usize, usize)]| {
         let e = metrics::rpe(&est, &refs, pairs);
         (EvoStats::of(&e.trans_m), EvoStats::of(&e.rot_deg))
@@ -114,13 +119,13 @@ pub fn evo_metrics(
     Some(EvoMetrics {
         poses: est.len(),
         ate_trans_m: EvoStats::of(&ate.trans_m)?,
-        ate_rot_deg: EvoStats::of(&ate.rot_deg).filter(|_| rigid),
-        rpe_trans_m: rpe_trans_m.filter(|_| rigid),
-        rpe_rot_deg: rpe_rot_deg.filter(|_| rigid),
+        ate_rot_deg: EvoStats::of(&ate.rot_deg),
+        rpe_trans_m,
+        rpe_rot_deg,
         rpe_segment_m: RPE_SEGMENT_M,
-        rpe_segments: if rigid { segments.len() } else { 0 },
-        rpe_segment_trans_m: rpe_segment_trans_m.filter(|_| rigid),
-        rpe_segment_rot_deg: rpe_segment_rot_deg.filter(|_| rigid),
+        rpe_segments: segments.len(),
+        rpe_segment_trans_m,
+        rpe_segment_rot_deg,
         mirror_fits_better,
     })
 }

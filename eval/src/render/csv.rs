@@ -1,13 +1,18 @@
-//! `pairs.csv`: one row per variant and pair, the records as they are.
+//! `pairs.csv`: one row per variant and pair, the records as they are; `cycles.csv`: one row
+//! per variant and loop across lags.
 
 use crate::error::EvalError;
 use crate::measure::basin::BasinReport;
 use crate::measure::report::RunReport;
 use crate::render::outdir::OutputDir;
 
-/// Writes `pairs.csv`.
+/// Writes `pairs.csv`, and `cycles.csv` when the run registered across lags.
 pub fn write(out: &mut OutputDir, report: &RunReport) -> Result<(), EvalError> {
-    out.write("pairs.csv", &pairs_csv(report)?)
+    out.write("pairs.csv", &pairs_csv(report)?)?;
+    if !report.cycles.is_empty() {
+        out.write("cycles.csv", &rows_csv(&report.cycles)?)?;
+    }
+    Ok(())
 }
 
 /// Serialises `rows` as CSV with a header from their field names.

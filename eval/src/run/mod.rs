@@ -7,6 +7,7 @@ pub mod covariance;
 pub mod estimates;
 pub mod extended;
 pub mod init;
+pub mod lags;
 pub mod pair_search;
 pub mod restarts;
 pub mod runner;

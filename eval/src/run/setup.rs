@@ -58,6 +58,9 @@ pub struct EvalSetup {
     /// Estimates made elsewhere, evaluated after the variants like one more variant each
     /// (see [`crate::run::estimates`]).
     pub estimates: Vec<ExternalEstimates>,
+    /// Every variant also registers `k → k+ℓ` for `2 ≤ ℓ ≤ lags` (1: consecutive pairs only;
+    /// see [`crate::run::lags`]).
+    pub lags: usize,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -88,7 +91,14 @@ impl EvalSetup {
             start_gate: StartGate::default(),
             covariance: CovarianceMode::Off,
             estimates: Vec::new(),
+            lags: 1,
         })
+    }
+
+    /// The same setup registering across lags up to `lags`.
+    pub fn with_lags(mut self, lags: usize) -> Self {
+        self.lags = lags;
+        self
     }
 
     /// The same setup with the external estimates `estimates` (evaluated after the variants).

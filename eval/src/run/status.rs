@@ -36,6 +36,21 @@ pub enum PairStatus {
         /// What the global search saw.
         check: GlobalCheck,
     },
+    /// Registered, but neither loop through its neighbours across lag 2 closes (`--lags`):
+    /// it is more than 0.3 m or 3° from both alternatives (the loops are measured in
+    /// `measure/cycles.rs`).
+    Inconsistent {
+        /// How far it is from the nearer of the two, m.
+        apart_m: f64,
+        /// …and degrees.
+        apart_deg: f64,
+        /// How far the two are from each other, m.
+        alternatives_apart_m: f64,
+        /// …and degrees.
+        alternatives_apart_deg: f64,
+        /// Whether they agree (within 0.1 m and 1°): then this registration alone is wrong.
+        alternatives_agree: bool,
+    },
     /// No registration: the method refused the input or broke down.
     Failed {
         /// The error, as the method said it.
@@ -55,6 +70,8 @@ pub enum StatusKind {
     NoOverlap,
     /// See [`PairStatus::Suspect`].
     Suspect,
+    /// See [`PairStatus::Inconsistent`].
+    Inconsistent,
     /// See [`PairStatus::Failed`].
     Failed,
 }
@@ -86,6 +103,7 @@ impl PairStatus {
             Self::Degenerate { .. } => StatusKind::Degenerate,
             Self::NoOverlap { .. } => StatusKind::NoOverlap,
             Self::Suspect { .. } => StatusKind::Suspect,
+            Self::Inconsistent { .. } => StatusKind::Inconsistent,
             Self::Failed { .. } => StatusKind::Failed,
         }
     }
@@ -121,6 +139,17 @@ impl fmt::Display for PairStatus {
                     check.best_score, check.result_score
                 )
             }
+            Self::Inconsistent {
+                apart_m,
+                apart_deg,
+                alternatives_apart_m,
+                alternatives_apart_deg,
+                alternatives_agree,
+            } => write!(
+                f,
+                "{apart_m:.2} m and {apart_deg:.1}° from the nearer of the two loops through its neighbours across lag 2, which {} each other ({alternatives_apart_m:.2} m and {alternatives_apart_deg:.1}° apart)",
+                if *alternatives_agree { "agree with" } else { "disagree with" }
+            ),
             Self::Failed { error } => write!(f, "{error}"),
         }
     }

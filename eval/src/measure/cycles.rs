@@ -1,0 +1,329 @@
+//! Truth-free self-consistency across lags (`--lags L`): every loop of consecutive
+//! registrations `k → k+1 → … → k+ℓ` against the direct registration `k → k+ℓ`
+//! ([`crate::run::lags`]), and the lag-1 registrations that disagree with both loops through
+//! their neighbours while those agree with each other (status `inconsistent`).
+//!
+//! # What a loop checks, and what it cannot
+//! Errors that act like a shift of one scan cancel around a loop: if scan `j` is seen in a
+//! frame off by `S_j` (its noise, a range bias, a motion distortion that every registration
+//! using it sees the same way), every registration is `T_b⁻¹ S_b⁻¹ … S_a T_a`-shaped and the
+//! `S` of the inner scans cancel in the chain, those of the ends in the comparison. A loop
+//! therefore closes even when every registration in it carries such an error: it checks
+//! association failures and gross errors (a registration in a wrong minimum breaks every loop
+//! through it), not the covariance. The loop's predicted σ (the members' covariances summed,
+//! frames and levers aside) overstates what the loop can show for the same reason.
+//!
+//! # The flag
+//! A lag-1 registration `A = k → k+1` has two alternatives across lag 2: `(k−1 → k+1)·(k−1 →
+//! k)⁻¹` and `(k+1 → k+2)⁻¹·(k → k+2)`, each from registrations other than `A` (registered,
+//! whatever their own status: a neighbour flagged degenerate still gives a number). `A` is
+//! flagged `inconsistent` when it is farther than the field's "wrong" thresholds
+//! ([`crate::measure::outcome::WRONG_TRANS_M`], [`crate::measure::outcome::WRONG_ROT_DEG`]:
+//! 0.3 m or 3°) from both: no loop through it closes. The reason says whether the two
+//! alternatives agree with each other (within the success thresholds, 0.1 m and 1°: then `A`
+//! alone is wrong) or not (failures in a row, or a wrong registration across the lag as
+//! well). The thresholds are the field's, not tuned on a log. Requiring the alternatives to
+//! agree as well caught none of the wrong registrations on aces from the global search (they
+//! come in runs there); see eval/README.md. A first or last pair has one alternative and is
+//! not judged.
+
+use icp_core::motion::wrap_deg;
+use icp_core::{Covariance, Registration};
+use nalgebra::Isometry2;
+use serde::{Deserialize, Serialize};
+
+use crate::measure::consistency::{closed_form_inflation, reported};
+use crate::measure::outcome::{SUCCESS_ROT_DEG, SUCCESS_TRANS_M, WRONG_ROT_DEG, WRONG_TRANS_M};
+use crate::measure::stats::quantile_sorted;
+use crate::run::covariance::CovarianceMode;
+use crate::run::lags::LagRuns;
+use crate::run::runner::{PairRun, Runs};
+use crate::run::setup::EvalSetup;
+use crate::run::status::PairStatus;
+
+/// One loop of one variant (a row of `cycles.csv`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CycleRecord {
+    /// Variant name.
+    pub variant: String,
+    /// Scan k.
+    pub source: usize,
+    /// Scan k+ℓ.
+    pub reference: usize,
+    /// ℓ.
+    pub lag: usize,
+    /// Translation between the chained consecutive registrations and the direct one, m.
+    pub discrepancy_trans_m: Option<f64>,
+    /// Rotation between them, degrees.
+    pub discrepancy_rot_deg: Option<f64>,
+    /// The members' translation covariances summed, as a standard deviation of the
+    /// discrepancy's length (frames and levers aside; an overstatement, see the module), m.
+    pub predicted_sigma_trans_m: Option<f64>,
+    /// The same for the rotation, degrees.
+    pub predicted_sigma_rot_deg: Option<f64>,
+    /// `closed` (within 0.1 m and 1°), `open` (beyond), or `incomplete` (a member not
+    /// registered).
+    pub status: String,
+}
+
+/// A variant's loops in `summary.json` (`variants[].cycles`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CycleSummary {
+    /// Loops across lag 2 with every member registered.
+    pub triangles: usize,
+    /// Lag-1 registrations flagged `inconsistent`.
+    pub inconsistent: usize,
+    /// Median translation discrepancy over those triangles, m.
+    pub median_trans_m: Option<f64>,
+    /// Median rotation discrepancy, degrees.
+    pub median_rot_deg: Option<f64>,
+    /// Wall time of the registrations across lags per consecutive pair, µs (beside the
+    /// global search's per pair, `global_search.timing`).
+    pub lag_time_per_pair_us: Option<f64>,
+    /// Wall time of the global searches of the pairs across lags per consecutive pair, µs
+    /// (made once, shared by every variant; none without `--init global` or checks).
+    pub lag_search_time_per_pair_us: Option<f64>,
+}
+
+/// How far apart two estimates of one `t_ref_src` are: translation m, |rotation| degrees.
+pub fn apart(a: &Isometry2<f64>, b: &Isometry2<f64>) -> (f64, f64) {
+    (
+        (a.translation.vector - b.translation.vector).norm(),
+        wrap_deg((a.rotation.angle() - b.rotation.angle()).to_degrees()).abs(),
+    )
+}
+
+/// The chained `t_ref_src` of consecutive registrations `steps` (`k → k+1` first): scan k
+/// into the frame of scan k+ℓ.
+pub fn chain(steps: &[Isometry2<f64>]) -> Isometry2<f64> {
+    steps
+        .iter()
+        .fold(Isometry2::identity(), |acc, step| step * acc)
+}
+
+fn within_success((m, deg): (f64, f64)) -> bool {
+    m <= SUCCESS_TRANS_M && deg <= SUCCESS_ROT_DEG
+}
+
+fn wrong((m, deg): (f64, f64)) -> bool {
+    m > WRONG_TRANS_M || deg > WRONG_ROT_DEG
+}
+
+/// The registration of a run, when there is one.
+fn registered(run: &PairRun) -> Option<&Registration> {
+    run.result.as_ref().ok()
+}
+
+/// Per lag-1 registration of one variant (`lag1`, the run's pairs in order; `lagged`, its
+/// registrations across lags in `lags.pairs`' order), the `inconsistent` status it earns;
+/// `None` where the loops do not say so.
+pub fn inconsistent(
+    lag1: &[PairRun],
+    lags: &LagRuns,
+    lagged: &[PairRun],
+) -> Vec<Option<PairStatus>> {
+    let direct = |first: usize| {
+        lags.pairs
+            .iter()
+            .zip(lagged)
+            .find(|(p, _)| p.lag == 2 && p.first == first)
+            .and_then(|(_, run)| registered(run))
+            .map(|r| r.t_ref_src)
+    };
+    (0..lag1.len())
+        .map(|i| {
+            let a = registered(&lag1[i])?.t_ref_src;
+            let before = direct(i.checked_sub(1)?)? * registered(&lag1[i - 1])?.t_ref_src.inverse();
+            let after = registered(lag1.get(i + 1)?)?.t_ref_src.inverse() * direct(i)?;
+            let alternatives = apart(&before, &after);
+            let (to_before, to_after) = (apart(&a, &before), apart(&a, &after));
+            (wrong(to_before) && wrong(to_after)).then(|| {
+                let nearer = if to_before.0 + to_before.1 / 10.0 <= to_after.0 + to_after.1 / 10.0 {
+                    to_before
+                } else {
+                    to_after
+                };
+                PairStatus::Inconsistent {
+                    apart_m: nearer.0,
+                    apart_deg: nearer.1,
+                    alternatives_apart_m: alternatives.0,
+                    alternatives_apart_deg: alternatives.1,
+                    alternatives_agree: within_success(alternatives),
+                }
+            })
+        })
+        .collect()
+}
+
+/// Every loop of one variant `name`: its lag-1 registrations `lag1` chained against each of
+/// its registrations across lags `lagged`, with `cov` giving a registration's covariance as
+/// the report uses it.
+pub fn records(
+    name: &str,
+    lag1: &[PairRun],
+    lags: &LagRuns,
+    lagged: &[PairRun],
+    cov: &dyn Fn(&Registration) -> Option<Covariance>,
+) -> Vec<CycleRecord> {
+    lags.pairs
+        .iter()
+        .zip(lagged)
+        .map(|(p, run)| {
+            let members: Option<Vec<&Registration>> = lag1[p.first..p.first + p.lag]
+                .iter()
+                .chain(std::iter::once(run))
+                .map(|r| r.result.as_ref().ok())
+                .collect();
+            let d = members.as_ref().map(|m| {
+                let steps: Vec<Isometry2<f64>> = m[..p.lag].iter().map(|r| r.t_ref_src).collect();
+                apart(&chain(&steps), &m[p.lag].t_ref_src)
+            });
+            let sigma = members.as_ref().and_then(|m| {
+                let (mut t2, mut r2) = (0.0, 0.0);
+                for r in m {
+                    let Covariance::Bounded(c) = cov(r)? else {
+                        return None;
+                    };
+                    t2 += c[(0, 0)] + c[(1, 1)];
+                    r2 += c[(2, 2)];
+                }
+                Some((t2.sqrt(), r2.sqrt().to_degrees()))
+            });
+            CycleRecord {
+                variant: name.to_owned(),
+                source: p.pair.source,
+                reference: p.pair.reference,
+                lag: p.lag,
+                discrepancy_trans_m: d.map(|d| d.0),
+                discrepancy_rot_deg: d.map(|d| d.1),
+                predicted_sigma_trans_m: sigma.map(|s| s.0),
+                predicted_sigma_rot_deg: sigma.map(|s| s.1),
+                status: match d {
+                    None => "incomplete",
+                    Some(d) if within_success(d) => "closed",
+                    Some(_) => "open",
+                }
+                .to_owned(),
+            }
+        })
+        .collect()
+}
+
+/// What the loops of a run say: every loop, per variant its summary, and per variant and
+/// lag-1 pair the `inconsistent` status it earns.
+pub struct Checked {
+    /// Every loop, variant by variant.
+    pub records: Vec<CycleRecord>,
+    /// Per registrar, its summary.
+    pub summaries: Vec<CycleSummary>,
+    /// Per registrar and pair of the run, the flag.
+    pub flags: Vec<Vec<Option<PairStatus>>>,
+}
+
+/// The loops of `setup`'s registrars over the run's consecutive registrations `runs` and
+/// those across lags `lags`.
+pub fn check(setup: &EvalSetup, runs: &Runs, lags: &LagRuns) -> Checked {
+    let mut out = Checked {
+        records: Vec::new(),
+        summaries: Vec::new(),
+        flags: Vec::new(),
+    };
+    for (v, variant) in setup.variants.iter().enumerate() {
+        let (lag1, lagged) = (&runs.per_variant[v], &lags.runs.per_variant[v]);
+        let inflation = closed_form_inflation(&variant.spec().metric);
+        // Sampled covariances are made for the consecutive pairs only.
+        let cov = |r: &Registration| {
+            (setup.covariance == CovarianceMode::ClosedForm)
+                .then(|| Some(reported(&r.covariance?, setup.covariance, inflation)))
+                .flatten()
+        };
+        let rows = records(variant.name(), lag1, lags, lagged, &cov);
+        // Only a registration nothing else flagged takes the status.
+        let flags: Vec<Option<PairStatus>> = inconsistent(lag1, lags, lagged)
+            .into_iter()
+            .zip(lag1)
+            .map(|(f, run)| f.filter(|_| run.status == PairStatus::Ok))
+            .collect();
+        let mut summary = summarize(&rows, flags.iter().flatten().count());
+        let per_pair = |us: f64| (!lag1.is_empty()).then(|| us / lag1.len() as f64);
+        summary.lag_time_per_pair_us = per_pair(lagged.iter().filter_map(|r| r.time_us).sum());
+        summary.lag_search_time_per_pair_us =
+            per_pair(lags.runs.searches.iter().map(|s| s.time_us).sum());
+        out.records.extend(rows);
+        out.summaries.push(summary);
+        out.flags.push(flags);
+    }
+    out
+}
+
+/// The summary of one variant's loops `rows` with `inconsistent` lag-1 flags.
+pub fn summarize(rows: &[CycleRecord], inconsistent: usize) -> CycleSummary {
+    let triangles: Vec<&CycleRecord> = rows
+        .iter()
+        .filter(|r| r.lag == 2 && r.discrepancy_trans_m.is_some())
+        .collect();
+    let median = |f: fn(&CycleRecord) -> Option<f64>| {
+        let mut v: Vec<f64> = triangles.iter().filter_map(|r| f(r)).collect();
+        v.sort_by(f64::total_cmp);
+        (!v.is_empty()).then(|| quantile_sorted(&v, 0.5))
+    };
+    CycleSummary {
+        triangles: triangles.len(),
+        inconsistent,
+        median_trans_m: median(|r| r.discrepancy_trans_m),
+        median_rot_deg: median(|r| r.discrepancy_rot_deg),
+        lag_time_per_pair_us: None,
+        lag_search_time_per_pair_us: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Vector2;
+
+    use super::*;
+
+    fn pose(x: f64, y: f64, deg: f64) -> Isometry2<f64> {
+        Isometry2::new(Vector2::new(x, y), deg.to_radians())
+    }
+
+    /// `t_ref_src` of scans `a → b` from their world poses `t_world_scan`.
+    fn between(poses: &[Isometry2<f64>], a: usize, b: usize) -> Isometry2<f64> {
+        poses[b].inverse() * poses[a]
+    }
+
+    #[test]
+    fn per_scan_shifts_cancel_around_a_loop() {
+        // A track of five scans, each seen in a frame off by its own shift S_j (a few cm and
+        // tenths of a degree: what one scan's noise or distortion does to every registration
+        // that uses it).
+        let truth: Vec<Isometry2<f64>> = (0..5)
+            .map(|k| pose(0.3 * k as f64, 0.02 * (k * k) as f64, 4.0 * k as f64))
+            .collect();
+        let shifts = [
+            pose(0.03, -0.01, 0.2),
+            pose(-0.02, 0.04, -0.3),
+            pose(0.05, 0.02, 0.4),
+            pose(-0.01, -0.03, 0.1),
+            pose(0.02, 0.0, -0.2),
+        ];
+        let seen: Vec<Isometry2<f64>> = truth.iter().zip(&shifts).map(|(t, s)| t * s).collect();
+        for k in 0..3 {
+            // Every registration is off against the truth…
+            let step_error = apart(&between(&seen, k, k + 1), &between(&truth, k, k + 1));
+            assert!(step_error.0 > 0.01, "{step_error:?}");
+            // …but the loop closes exactly.
+            let steps = [between(&seen, k, k + 1), between(&seen, k + 1, k + 2)];
+            let d = apart(&chain(&steps), &between(&seen, k, k + 2));
+            assert!(d.0 < 1e-12 && d.1 < 1e-9, "{d:?}");
+        }
+        // A wrong minimum in one registration does not cancel.
+        let mut wrong = between(&seen, 1, 2);
+        wrong.translation.vector.x += 0.5;
+        let d = apart(
+            &chain(&[between(&seen, 0, 1), wrong]),
+            &between(&seen, 0, 2),
+        );
+        assert!((d.0 - 0.5).abs() < 0.05, "{d:?}");
+    }
+}
