@@ -32,10 +32,11 @@ use icp_core::{Covariance, Registration};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
-use crate::measure::consistency::{closed_form_inflation, reported};
 use crate::measure::outcome::{SUCCESS_ROT_DEG, SUCCESS_TRANS_M, WRONG_ROT_DEG, WRONG_TRANS_M};
 use crate::measure::stats::quantile_sorted;
+use crate::run::covariance::closed_form_inflation;
 use crate::run::covariance::CovarianceMode;
+use crate::run::extended;
 use crate::run::lags::LagRuns;
 use crate::run::runner::{PairRun, Runs};
 use crate::run::setup::EvalSetup;
@@ -231,11 +232,15 @@ pub fn check(setup: &EvalSetup, runs: &Runs, lags: &LagRuns) -> Checked {
     for (v, variant) in setup.variants.iter().enumerate() {
         let (lag1, lagged) = (&runs.per_variant[v], &lags.runs.per_variant[v]);
         let inflation = closed_form_inflation(&variant.spec().metric);
-        // Sampled covariances are made for the consecutive pairs only.
+        // Sampled and restarted covariances are made for the consecutive pairs only; the
+        // closed form and the extended one come with every registration, lag pairs included.
         let cov = |r: &Registration| {
-            (setup.covariance == CovarianceMode::ClosedForm)
-                .then(|| Some(reported(&r.covariance?, setup.covariance, inflation)))
-                .flatten()
+            matches!(
+                setup.covariance,
+                CovarianceMode::ClosedForm | CovarianceMode::Extended
+            )
+            .then(|| extended::of_registration(r, setup.covariance, inflation))
+            .flatten()
         };
         let rows = records(variant.name(), lag1, lags, lagged, &cov);
         // Only a registration nothing else flagged takes the status.
