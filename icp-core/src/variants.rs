@@ -28,7 +28,7 @@ use crate::registry::{param_docs, BuildContext, FamilyDoc, ParamError, SectionDo
 use crate::robust::ROBUST_KERNELS;
 use crate::select::SELECTIONS;
 use crate::surface::SurfaceParams;
-use crate::weighting::WEIGHTINGS;
+use crate::weighting::{Weighting, WEIGHTINGS};
 use crate::{IcpError, SensorModel, Termination};
 
 /// One registration method as data: what a configuration file holds. A stage missing from a
@@ -148,7 +148,7 @@ impl VariantSpec {
             matcher: MATCHERS.build(&self.matcher, &ctx)?,
             surfaces: self.surfaces,
             metric,
-            weighting: WEIGHTINGS.build(&self.weighting, &ctx)?,
+            weighting: Weighting::Pair(WEIGHTINGS.build(&self.weighting, &ctx)?),
             robust: ROBUST_KERNELS.build(&self.robust, &ctx)?,
             minimizer,
             termination: self.termination,
