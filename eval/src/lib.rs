@@ -30,6 +30,7 @@ pub mod plots;
 pub mod published;
 pub mod reference;
 pub mod report;
+pub mod run_options;
 pub mod runner;
 pub mod sampled;
 pub mod scaling;

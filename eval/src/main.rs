@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use datasets::synthetic::{self, Scenario};
-use datasets::{marina, Dataset, DatasetSource, LoadWarning};
+use datasets::{marina, Dataset, DatasetSource};
 use eval::basin::BasinOptions;
 use eval::compare::{compare, compare_md, CompareOptions};
 use eval::consistency::CovarianceMode;
@@ -15,6 +15,7 @@ use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
 use eval::init::{InitChain, MODES};
 use eval::merge::MergedRun;
 use eval::report::RunReport;
+use eval::run_options::{override_sensor, BuiltinOptions};
 use eval::shard::{Plan, RunOptions, Shard, ShardOrigin, SweepPlan, Work};
 use eval::start_gate::StartGate;
 use eval::{
@@ -580,13 +581,6 @@ fn read_variants_file(path: &Path) -> Result<Vec<VariantSpec>> {
 }
 
 /// `spec` with the parameter at `path` set to `value` when it has one.
-fn set_param(spec: VariantSpec, path: &str, value: serde_json::Value) -> Result<VariantSpec> {
-    Ok(spec
-        .with_param(path, value)
-        .with_context(|| format!("variant {}", spec.name))?
-        .unwrap_or(spec))
-}
-
 /// The variants to run: the built-in ones named, with the dataset's sensor model (after
 /// `--sensor`) and the shared options, then those of the configuration files as written.
 fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>> {
@@ -598,26 +592,26 @@ fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>
         None if args.config.is_empty() => TABLE1.iter().map(|s| s.to_string()).collect(),
         None => Vec::new(),
     };
+    let options = BuiltinOptions {
+        matcher: args.matcher.clone(),
+        huber_c: args.huber_c,
+        seed: args.seed,
+    };
     let mut specs = Vec::new();
     for n in &names {
-        let mut spec = builtin(n).with_context(|| {
+        let spec = builtin(n).with_context(|| {
             format!(
                 "unknown variant {n:?}: expected one of {}, or --config FILE",
                 builtin_names().join(", ")
             )
         })?;
         // The shared options apply to the built-in variants, where they have the parameter.
-        spec.sensor = ds.sensor;
-        if let Some(m) = &args.matcher {
-            spec = set_param(spec, "matcher.kind", m.as_str().into())?;
-        }
-        if let Some(c) = args.huber_c {
-            spec = set_param(spec, "robust.c", c.into())?;
-        }
-        if let Some(seed) = args.seed {
-            spec = set_param(spec, "selection.seed", seed.into())?;
-        }
-        specs.push(spec);
+        let name = spec.name.clone();
+        specs.push(
+            options
+                .apply(spec, ds.sensor)
+                .with_context(|| format!("variant {name}"))?,
+        );
     }
     for path in &args.config {
         specs.extend(read_variants_file(path)?);
@@ -1043,21 +1037,7 @@ fn load_dataset(args: &DataArgs) -> Result<Dataset> {
     }
     let mut ds = source.open()?;
     if let Some(overrides) = &args.sensor {
-        ds.sensor = overrides.apply(ds.sensor).context("--sensor")?;
-        // The model is the user's where --sensor gives it: an assumed one no longer is, or is
-        // only in part.
-        let whole = overrides.sigma_r_const_m.is_some()
-            && overrides.sigma_r_per_m.is_some()
-            && overrides.sigma_alpha_deg.is_some();
-        let effective = ds.sensor;
-        ds.warnings.retain_mut(|w| match w {
-            LoadWarning::AssumedSensorModel { sensor, of } => {
-                *sensor = effective;
-                *of = format!("{of}, with --sensor's values");
-                !whole
-            }
-            _ => true,
-        });
+        override_sensor(&mut ds, overrides).context("--sensor")?;
     }
     Ok(ds)
 }
