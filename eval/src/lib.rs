@@ -15,6 +15,7 @@ use indicatif::ProgressBar;
 pub mod basin;
 pub mod bound;
 pub mod compare;
+pub mod compare_files;
 pub mod consistency;
 pub mod estimates;
 pub mod evo;

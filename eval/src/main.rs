@@ -8,7 +8,7 @@ use clap::{Args, Parser, Subcommand};
 use datasets::synthetic::{self, Scenario};
 use datasets::{marina, Dataset, DatasetSource};
 use eval::basin::BasinOptions;
-use eval::compare::{compare, compare_md, CompareOptions};
+use eval::compare::CompareOptions;
 use eval::consistency::CovarianceMode;
 use eval::estimates::EstimatesSpec;
 use eval::gate::{gate, incompatibility, outcome_md, Tolerances};
@@ -708,10 +708,7 @@ fn note_estimates(setup: &EvalSetup) {
 
 /// Writes and prints `compare.md` and `compare.json` of `report`.
 fn write_compare(dir: &mut OutputDir, report: &RunReport, options: &CompareOptions) -> Result<()> {
-    let rows = compare(report, options);
-    let md = compare_md(report, &rows, options);
-    let json = serde_json::json!({ "options": options, "comparisons": rows });
-    write_md_json(dir, "compare", &md, &json)?;
+    let (md, _) = eval::compare_files::write_compare(dir, report, options)?;
     println!("{md}");
     Ok(())
 }

@@ -30,6 +30,7 @@ fn icp_bench(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(register::register, m)?)?;
     m.add_function(wrap_pyfunction!(motion::motion, m)?)?;
     m.add_function(wrap_pyfunction!(run::run, m)?)?;
+    m.add_function(wrap_pyfunction!(run::compare, m)?)?;
     m.add("InputError", py.get_type::<errors::InputError>())?;
     m.add("ConfigError", py.get_type::<errors::ConfigError>())?;
     m.add("DataError", py.get_type::<errors::DataError>())?;

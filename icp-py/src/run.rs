@@ -1,11 +1,14 @@
 //! `icp_bench.run(uri, variants, weightings, out=DIR, **options) -> dict`: the harness's
 //! `run` (`icp-eval run`), with the command line's options as keywords, the same files
 //! written, `summary.json` returned; a weighting written in Python enters as one more
-//! variant. The GIL is released while the run runs.
+//! variant. `icp_bench.compare` adds `icp-eval compare`'s comparison. The GIL is released
+//! while the run runs.
 
 use std::path::PathBuf;
 use std::str::FromStr;
 
+use eval::compare::CompareOptions;
+use eval::compare_files::write_compare;
 use eval::consistency::CovarianceMode;
 use eval::estimates::EstimatesSpec;
 use eval::init::InitChain;
@@ -22,7 +25,7 @@ use indicatif::ProgressBar;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyString};
 
-use crate::convert::from_python;
+use crate::convert::{from_python, to_python};
 use crate::errors::{config_error, dataset_error, eval_error, ConfigError, WeightingError};
 use crate::register::variant_spec;
 use crate::weighting::PyWeighting;
@@ -170,21 +173,24 @@ fn builtin_spec(name: &str) -> PyResult<VariantSpec> {
     })
 }
 
-/// Runs `variants` (built-in names, to which the options apply, or specs as dicts, taken as
-/// written; default: the four of Table 1) and the Python `weightings`
-/// (`{NAME: (BASE_VARIANT, fn)}`) over every consecutive pair of the dataset `uri`, writes
-/// the run's files into `out` and returns `summary.json` as a dict.
-#[pyfunction]
-#[pyo3(signature = (uri, variants=None, weightings=None, *, out, **options))]
-pub fn run<'py>(
+/// A run evaluated and checked, its files not yet written.
+struct Evaluated {
+    ds: datasets::Dataset,
+    report: eval::RunReport,
+    dir: OutputDir,
+    plots: bool,
+}
+
+/// Runs `variants` and the Python `weightings` over the dataset `uri` with `options` (the
+/// command line's), into the opened directory `out`.
+fn evaluate_run<'py>(
     py: Python<'py>,
     uri: &str,
     variants: Option<Vec<Bound<'py, PyAny>>>,
     weightings: Option<&Bound<'py, PyDict>>,
     out: PathBuf,
-    options: Option<&'py Bound<'py, PyDict>>,
-) -> PyResult<Bound<'py, PyAny>> {
-    let options = Options { given: options };
+    options: &Options<'py>,
+) -> PyResult<Evaluated> {
     options.check()?;
     let run_options = options.run_options()?;
     let builtin_options = BuiltinOptions {
@@ -196,7 +202,6 @@ pub fn run<'py>(
     let threads: Option<usize> = options.get("threads")?;
     let plots: bool = options.get("plots")?.unwrap_or(true);
     let force: bool = options.get("force")?.unwrap_or(false);
-
     let mut ds = py
         .detach(|| datasets::source::open(uri))
         .map_err(dataset_error)?;
@@ -259,7 +264,7 @@ pub fn run<'py>(
         return Err(ConfigError::new_err("option threads: at least 1"));
     }
 
-    let mut dir = OutputDir::open(&out, force).map_err(eval_error)?;
+    let dir = OutputDir::open(&out, force).map_err(eval_error)?;
     let report = py
         .detach(|| {
             let go = || evaluate(&ds, &setup, &ProgressBar::hidden());
@@ -284,9 +289,64 @@ pub fn run<'py>(
             failed.variant, failed.pair, failed.source, failed.reference, failed.status_reason
         )));
     }
-    write_outputs(&mut dir, &ds, &report, plots).map_err(eval_error)?;
-    let summary = eval::output::summary_json(&report).map_err(eval_error)?;
+    Ok(Evaluated {
+        ds,
+        report,
+        dir,
+        plots,
+    })
+}
+
+/// Runs `variants` (built-in names, to which the options apply, or specs as dicts, taken as
+/// written; default: the four of Table 1) and the Python `weightings`
+/// (`{NAME: (BASE_VARIANT, fn)}`) over every consecutive pair of the dataset `uri`, writes
+/// the files of `icp-eval run` into `out` and returns `summary.json` as a dict.
+#[pyfunction]
+#[pyo3(signature = (uri, variants=None, weightings=None, *, out, **options))]
+pub fn run<'py>(
+    py: Python<'py>,
+    uri: &str,
+    variants: Option<Vec<Bound<'py, PyAny>>>,
+    weightings: Option<&Bound<'py, PyDict>>,
+    out: PathBuf,
+    options: Option<&'py Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let options = Options { given: options };
+    let mut run = evaluate_run(py, uri, variants, weightings, out, &options)?;
+    write_outputs(&mut run.dir, &run.ds, &run.report, run.plots).map_err(eval_error)?;
+    let summary = eval::output::summary_json(&run.report).map_err(eval_error)?;
     py.import("json")?.call_method1("loads", (summary,))
+}
+
+/// [`run`], then every pair of variants compared as `icp-eval compare` does (per-pair
+/// differences of |SOG error| and |ΔCOG error|: bootstrap interval of the mean with
+/// `bootstrap` resamples seeded by `bootstrap_seed`, Wilcoxon and Holm-adjusted p-values):
+/// writes its files and `compare.md` and `compare.json` into `out` and returns
+/// `compare.json` as a dict.
+#[pyfunction]
+#[pyo3(signature = (uri, variants=None, weightings=None, *, out, bootstrap=10_000, bootstrap_seed=0, **options))]
+#[allow(clippy::too_many_arguments)]
+pub fn compare<'py>(
+    py: Python<'py>,
+    uri: &str,
+    variants: Option<Vec<Bound<'py, PyAny>>>,
+    weightings: Option<&Bound<'py, PyDict>>,
+    out: PathBuf,
+    bootstrap: usize,
+    bootstrap_seed: u64,
+    options: Option<&'py Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let options = Options { given: options };
+    let mut run = evaluate_run(py, uri, variants, weightings, out, &options)?;
+    write_outputs(&mut run.dir, &run.ds, &run.report, run.plots).map_err(eval_error)?;
+    let compare_options = CompareOptions {
+        resamples: bootstrap,
+        seed: bootstrap_seed,
+    };
+    let (_, json) = py
+        .detach(|| write_compare(&mut run.dir, &run.report, &compare_options))
+        .map_err(eval_error)?;
+    to_python(py, &json)
 }
 
 /// How icp-core's error for a failed batch weighting begins

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 import icp_bench
-from conftest import SMALL
+from conftest import REPO, SMALL
+
+REPO_TOLERANCE = REPO / "reports" / "baseline" / "tolerance.json"
 
 
 def inverse_range(pairs):
@@ -164,3 +166,31 @@ def test_run_options_reach_the_harness(tmp_path):
     assert isinstance(e.value, OSError)
     icp_bench.run(SMALL, ["HD_ICP"], out=tmp_path / "mine", plots=False, force=True)
     assert (tmp_path / "mine" / "notes.txt").exists()
+
+
+def test_a_python_variant_enters_compare_and_the_gate(tmp_path, icp_eval):
+    import subprocess
+
+    out = tmp_path / "cmp"
+    result = icp_bench.compare(SMALL, ["H_ICP"], {"PY_IR": ("H_ICP", inverse_range)}, out=out,
+                               plots=False, bootstrap=500, bootstrap_seed=1)
+    assert result == json.loads((out / "compare.json").read_text())
+    assert result["options"] == {"resamples": 500, "seed": 1}
+    assert any({c["a"], c["b"]} == {"H_ICP", "PY_IR"} for c in result["comparisons"])
+    assert "PY_IR" in (out / "compare.md").read_text()
+    # The gate takes its summary like any other: the same run passes against itself, and a
+    # baseline where PY_IR registered one more pair is a regression of PY_IR.
+    summary = out / "summary.json"
+    ok = subprocess.run([icp_eval, "gate", "--baseline", summary, "--current", summary,
+                         "--tolerance", REPO_TOLERANCE], capture_output=True, text=True)
+    assert ok.returncode == 0, ok.stdout + ok.stderr
+    better = json.loads(summary.read_text())
+    for v in better["variants"]:
+        if v["name"] == "PY_IR":
+            v["pairs_ok"] += 1
+    baseline = tmp_path / "baseline.json"
+    baseline.write_text(json.dumps(better))
+    worse = subprocess.run([icp_eval, "gate", "--baseline", baseline, "--current", summary,
+                            "--tolerance", REPO_TOLERANCE], capture_output=True, text=True)
+    assert worse.returncode == 1, worse.stdout + worse.stderr
+    assert "PY_IR" in worse.stdout
