@@ -194,3 +194,32 @@ def test_a_python_variant_enters_compare_and_the_gate(tmp_path, icp_eval):
                             "--tolerance", REPO_TOLERANCE], capture_output=True, text=True)
     assert worse.returncode == 1, worse.stdout + worse.stderr
     assert "PY_IR" in worse.stdout
+
+
+def test_the_gil_is_released_while_a_run_runs(tmp_path):
+    """Another Python thread runs during run(). With a long switch interval the interpreter
+    does not hand the GIL over on its own, so the counting thread advances only while run()
+    has released it."""
+    import sys
+    import threading
+
+    ticks, stop = [0], threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks[0] += 1
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(0.5)
+    counter = threading.Thread(target=count)
+    try:
+        counter.start()
+        before = ticks[0]
+        icp_bench.run(SMALL, ["HD_ICP", "HD_GICP"], out=tmp_path / "run", plots=False,
+                      threads=1)
+        during = ticks[0] - before
+    finally:
+        stop.set()
+        counter.join()
+        sys.setswitchinterval(interval)
+    assert during > 1000, during
