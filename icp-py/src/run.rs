@@ -173,24 +173,22 @@ fn builtin_spec(name: &str) -> PyResult<VariantSpec> {
     })
 }
 
-/// A run evaluated and checked, its files not yet written.
-struct Evaluated {
-    ds: datasets::Dataset,
+/// A run made and its files written.
+struct Written {
     report: eval::RunReport,
     dir: OutputDir,
-    plots: bool,
 }
 
 /// Runs `variants` and the Python `weightings` over the dataset `uri` with `options` (the
-/// command line's), into the opened directory `out`.
-fn evaluate_run<'py>(
+/// command line's) and writes the run's files into `out`.
+fn run_and_write<'py>(
     py: Python<'py>,
     uri: &str,
     variants: Option<Vec<Bound<'py, PyAny>>>,
     weightings: Option<&Bound<'py, PyDict>>,
     out: PathBuf,
     options: &Options<'py>,
-) -> PyResult<Evaluated> {
+) -> PyResult<Written> {
     options.check()?;
     let run_options = options.run_options()?;
     let builtin_options = BuiltinOptions {
@@ -264,7 +262,7 @@ fn evaluate_run<'py>(
         return Err(ConfigError::new_err("option threads: at least 1"));
     }
 
-    let dir = OutputDir::open(&out, force).map_err(eval_error)?;
+    let mut dir = OutputDir::open(&out, force).map_err(eval_error)?;
     let report = py
         .detach(|| {
             let go = || evaluate(&ds, &setup, &ProgressBar::hidden());
@@ -289,12 +287,8 @@ fn evaluate_run<'py>(
             failed.variant, failed.pair, failed.source, failed.reference, failed.status_reason
         )));
     }
-    Ok(Evaluated {
-        ds,
-        report,
-        dir,
-        plots,
-    })
+    write_outputs(&mut dir, &ds, &report, plots).map_err(eval_error)?;
+    Ok(Written { report, dir })
 }
 
 /// Runs `variants` (built-in names, to which the options apply, or specs as dicts, taken as
@@ -311,9 +305,14 @@ pub fn run<'py>(
     out: PathBuf,
     options: Option<&'py Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let options = Options { given: options };
-    let mut run = evaluate_run(py, uri, variants, weightings, out, &options)?;
-    write_outputs(&mut run.dir, &run.ds, &run.report, run.plots).map_err(eval_error)?;
+    let run = run_and_write(
+        py,
+        uri,
+        variants,
+        weightings,
+        out,
+        &Options { given: options },
+    )?;
     let summary = eval::output::summary_json(&run.report).map_err(eval_error)?;
     py.import("json")?.call_method1("loads", (summary,))
 }
@@ -336,9 +335,14 @@ pub fn compare<'py>(
     bootstrap_seed: u64,
     options: Option<&'py Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let options = Options { given: options };
-    let mut run = evaluate_run(py, uri, variants, weightings, out, &options)?;
-    write_outputs(&mut run.dir, &run.ds, &run.report, run.plots).map_err(eval_error)?;
+    let mut run = run_and_write(
+        py,
+        uri,
+        variants,
+        weightings,
+        out,
+        &Options { given: options },
+    )?;
     let compare_options = CompareOptions {
         resamples: bootstrap,
         seed: bootstrap_seed,
