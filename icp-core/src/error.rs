@@ -94,6 +94,15 @@ pub enum IcpError {
     /// A pair weight that is NaN, infinite or negative.
     #[error("pair {pair} has an invalid weight {value}")]
     InvalidWeight { pair: usize, value: f64 },
+    /// A [`crate::weighting::BatchWeighting`] failed or returned weights that are not one
+    /// per pair, finite and ≥ 0.
+    #[error("the pair weighting failed at iteration {iteration}: {why}")]
+    WeightingFailed {
+        /// The minimisation step (from 0).
+        iteration: usize,
+        /// What went wrong.
+        why: String,
+    },
     /// The weights of all pairs sum to zero (or are not finite).
     #[error("the pair weights sum to {sum}: no pair constrains the motion")]
     DegenerateWeights { sum: f64 },

@@ -15,7 +15,7 @@ use crate::select::Selection;
 use crate::spec::VariantSpec;
 use crate::surface::SurfaceParams;
 use crate::termination::{StopReason, Termination, CYCLE_MEMORY};
-use crate::weighting::PairWeighting;
+use crate::weighting::{BatchWeighting, PairWeighting, Weighting};
 use crate::workspace::Workspace;
 use crate::{IcpError, SensorModel};
 
@@ -31,7 +31,7 @@ pub struct Icp {
     pub(crate) matcher: Box<dyn Matcher>,
     pub(crate) surfaces: SurfaceParams,
     pub(crate) metric: Box<dyn Metric>,
-    pub(crate) weighting: Box<dyn PairWeighting>,
+    pub(crate) weighting: Weighting,
     pub(crate) robust: Box<dyn RobustKernel>,
     pub(crate) minimizer: Box<dyn Minimizer>,
     pub(crate) termination: Termination,
@@ -41,7 +41,14 @@ impl Icp {
     /// The same chain with another pair weighting (its [`PairWeighting::spec`] is what reports
     /// show).
     pub fn with_weighting(mut self, weighting: impl PairWeighting + 'static) -> Self {
-        self.weighting = Box::new(weighting);
+        self.weighting = Weighting::Pair(Box::new(weighting));
+        self
+    }
+
+    /// The same chain with a pair weighting that weighs each iteration at once and may fail
+    /// (one written outside Rust; its [`BatchWeighting::spec`] is what reports show).
+    pub fn with_batch_weighting(mut self, weighting: impl BatchWeighting + 'static) -> Self {
+        self.weighting = Weighting::Batch(Box::new(weighting));
         self
     }
 
@@ -269,7 +276,7 @@ impl Registrar for Icp {
                 break (StopReason::MaxIterations, mean, used);
             }
             // Alg. 1 step 3, eqs. 11–13: the scheme's weight of each usable pair.
-            self.weighting.weigh_all(&set, weights);
+            self.weighting.weigh(&set, iterations, weights)?;
             if used < residuals.len() {
                 for (w, r) in weights.iter_mut().zip(residuals.iter()) {
                     if r.is_nan() {
@@ -301,7 +308,7 @@ impl Registrar for Icp {
             let set = pair_set!();
             let fresh = iterations == 0 || weights.len() != residuals.len();
             if fresh {
-                self.weighting.weigh_all(&set, weights);
+                self.weighting.weigh(&set, iterations, weights)?;
             }
             for (w, r) in weights.iter_mut().zip(residuals.iter()) {
                 if r.is_nan() {

@@ -28,7 +28,7 @@ use crate::robust::ROBUST_KERNELS;
 use crate::select::SELECTIONS;
 pub use crate::spec::{check_name, VariantSpec};
 use crate::surface::SurfaceParams;
-use crate::weighting::WEIGHTINGS;
+use crate::weighting::{Weighting, WEIGHTINGS};
 use crate::{IcpError, SensorModel, Termination};
 
 impl VariantSpec {
@@ -74,7 +74,7 @@ impl VariantSpec {
             matcher: MATCHERS.build(&self.matcher, &ctx)?,
             surfaces: self.surfaces,
             metric,
-            weighting: WEIGHTINGS.build(&self.weighting, &ctx)?,
+            weighting: Weighting::Pair(WEIGHTINGS.build(&self.weighting, &ctx)?),
             robust: ROBUST_KERNELS.build(&self.robust, &ctx)?,
             minimizer,
             termination: self.termination,

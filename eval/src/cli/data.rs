@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use datasets::{Dataset, DatasetSource, LoadWarning};
+use datasets::{Dataset, DatasetSource};
+use eval::run::options::override_sensor;
 use icp_core::sensor::SensorOverrides;
 
 /// `--dataset`'s one-line help: the registered kinds.
@@ -74,21 +75,7 @@ pub(crate) fn load_dataset(args: &DataArgs) -> Result<Dataset> {
     }
     let mut ds = source.open()?;
     if let Some(overrides) = &args.sensor {
-        ds.sensor = overrides.apply(ds.sensor).context("--sensor")?;
-        // The model is the user's where --sensor gives it: an assumed one no longer is, or is
-        // only in part.
-        let whole = overrides.sigma_r_const_m.is_some()
-            && overrides.sigma_r_per_m.is_some()
-            && overrides.sigma_alpha_deg.is_some();
-        let effective = ds.sensor;
-        ds.warnings.retain_mut(|w| match w {
-            LoadWarning::AssumedSensorModel { sensor, of } => {
-                *sensor = effective;
-                *of = format!("{of}, with --sensor's values");
-                !whole
-            }
-            _ => true,
-        });
+        override_sensor(&mut ds, overrides).context("--sensor")?;
     }
     Ok(ds)
 }

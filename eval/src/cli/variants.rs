@@ -8,6 +8,7 @@ use clap::Args;
 use datasets::Dataset;
 use icp_core::matching::MATCHERS;
 use icp_core::variants::{builtin, builtin_names, VariantSpec, TABLE1};
+use eval::run::options::BuiltinOptions;
 use serde::Deserialize;
 
 #[derive(Args)]
@@ -60,18 +61,6 @@ pub(crate) fn read_variants_file(path: &Path) -> Result<Vec<VariantSpec>> {
     Ok(specs)
 }
 
-/// `spec` with the parameter at `path` set to `value` when it has one.
-pub(crate) fn set_param(
-    spec: VariantSpec,
-    path: &str,
-    value: serde_json::Value,
-) -> Result<VariantSpec> {
-    Ok(spec
-        .with_param(path, value)
-        .with_context(|| format!("variant {}", spec.name))?
-        .unwrap_or(spec))
-}
-
 /// The variants to run: the built-in ones named, with the dataset's sensor model (after
 /// `--sensor`) and the shared options, then those of the configuration files as written.
 pub(crate) fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<VariantSpec>> {
@@ -83,26 +72,26 @@ pub(crate) fn resolve_variants(args: &VariantArgs, ds: &Dataset) -> Result<Vec<V
         None if args.config.is_empty() => TABLE1.iter().map(|s| s.to_string()).collect(),
         None => Vec::new(),
     };
+    let options = BuiltinOptions {
+        matcher: args.matcher.clone(),
+        huber_c: args.huber_c,
+        seed: args.seed,
+    };
     let mut specs = Vec::new();
     for n in &names {
-        let mut spec = builtin(n).with_context(|| {
+        let spec = builtin(n).with_context(|| {
             format!(
                 "unknown variant {n:?}: expected one of {}, or --config FILE",
                 builtin_names().join(", ")
             )
         })?;
         // The shared options apply to the built-in variants, where they have the parameter.
-        spec.sensor = ds.sensor;
-        if let Some(m) = &args.matcher {
-            spec = set_param(spec, "matcher.kind", m.as_str().into())?;
-        }
-        if let Some(c) = args.huber_c {
-            spec = set_param(spec, "robust.c", c.into())?;
-        }
-        if let Some(seed) = args.seed {
-            spec = set_param(spec, "selection.seed", seed.into())?;
-        }
-        specs.push(spec);
+        let name = spec.name.clone();
+        specs.push(
+            options
+                .apply(spec, ds.sensor)
+                .with_context(|| format!("variant {name}"))?,
+        );
     }
     for path in &args.config {
         specs.extend(read_variants_file(path)?);

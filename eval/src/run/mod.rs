@@ -8,6 +8,7 @@ pub mod estimates;
 pub mod extended;
 pub mod init;
 pub mod lags;
+pub mod options;
 pub mod pair_search;
 pub mod restarts;
 pub mod runner;

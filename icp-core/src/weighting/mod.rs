@@ -2,7 +2,8 @@
 //!
 //! A scheme sees one pair at a time through [`PairView`], so a new scheme is a few lines: see
 //! the README's recipe (one file with its `impl PairWeighting` and its `KIND`, and one line in
-//! [`WEIGHTINGS`]).
+//! [`WEIGHTINGS`]). A scheme written outside Rust weighs a whole iteration through
+//! [`BatchWeighting`].
 
 use nalgebra::{Point2, UnitComplex, Vector2};
 
@@ -10,12 +11,15 @@ use crate::pairs::PairSet;
 use crate::registry::{Family, StageSpec};
 use crate::scan::Return;
 
+mod batch;
 mod directional;
 mod inverse_range;
 mod mean_error;
 mod normal_directional;
 mod uniform;
 
+pub use batch::BatchWeighting;
+pub(crate) use batch::Weighting;
 pub use directional::Directional;
 pub use inverse_range::InverseRange;
 pub use mean_error::MeanError;
