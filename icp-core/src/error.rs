@@ -94,7 +94,7 @@ pub enum IcpError {
     /// A pair weight that is NaN, infinite or negative.
     #[error("pair {pair} has an invalid weight {value}")]
     InvalidWeight { pair: usize, value: f64 },
-    /// A [`crate::weighting::BatchWeighting`] failed or returned weights that are not one
+    /// A batch pair weighting (`weighting::BatchWeighting`) failed or returned weights that are not one
     /// per pair, finite and ≥ 0.
     #[error("the pair weighting failed at iteration {iteration}: {why}")]
     WeightingFailed {

@@ -7,22 +7,22 @@
 use std::path::PathBuf;
 use std::str::FromStr;
 
-use eval::measure::compare::{compare, CompareOptions};
+use eval::measure::compare::{self as comparisons, CompareOptions};
+use eval::pipeline::evaluate;
+use eval::render::outdir::OutputDir;
 use eval::render::studies::write_comparison;
+use eval::render::write_outputs;
 use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::EstimatesSpec;
 use eval::run::init::InitChain;
 use eval::run::options::override_sensor;
 use eval::run::options::BuiltinOptions;
-use eval::shard::RunOptions;
-use eval::run::start_gate::StartGate;
-use eval::run::status::StatusKind;
-use eval::pipeline::evaluate;
-use eval::render::write_outputs;
 use eval::run::setup::GlobalChecks;
 use eval::run::setup::OffsetChoice;
-use eval::render::outdir::OutputDir;
 use eval::run::setup::ReferenceChecks;
+use eval::run::start_gate::StartGate;
+use eval::run::status::StatusKind;
+use eval::shard::RunOptions;
 use icp_core::global::{GlobalParams, RotationMode};
 use icp_core::sensor::SensorOverrides;
 use icp_core::variants::{builtin, builtin_names, VariantSpec, TABLE1};
@@ -360,7 +360,7 @@ pub fn compare<'py>(
         resamples: bootstrap,
         seed: bootstrap_seed,
     };
-    let rows = compare(&run.report, &compare_options);
+    let rows = comparisons::compare(&run.report, &compare_options);
     let json = serde_json::json!({ "options": compare_options, "comparisons": rows });
     py.detach(|| {
         write_comparison(

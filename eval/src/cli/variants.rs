@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use datasets::Dataset;
+use eval::run::options::BuiltinOptions;
 use icp_core::matching::MATCHERS;
 use icp_core::variants::{builtin, builtin_names, VariantSpec, TABLE1};
-use eval::run::options::BuiltinOptions;
 use serde::Deserialize;
 
 #[derive(Args)]
