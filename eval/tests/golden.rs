@@ -14,37 +14,14 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use common::{data, icp_eval_command, scratch_dir};
+use common::{data, icp_eval_ok, scratch_dir};
 
 const UPDATE_ENV: &str = "ICP_UPDATE_GOLDEN";
-
-fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("eval sits in the workspace")
-        .to_path_buf()
-}
 
 fn golden_dir(case: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/golden")
         .join(case)
-}
-
-/// Runs `icp-eval ARGS` from the workspace root (so relative paths in the arguments are
-/// written as given), failing with its stderr.
-fn icp_eval(args: &[&str]) {
-    let out = icp_eval_command()
-        .current_dir(workspace_root())
-        .args(args)
-        .args(["--quiet"])
-        .output()
-        .expect("icp-eval runs");
-    assert!(
-        out.status.success(),
-        "icp-eval {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 /// `value` with every number under a key ending in `_us` replaced by null.
@@ -183,7 +160,7 @@ fn whole_and_sharded(case: &str, args: &[&str], shards: usize) {
     let mut run: Vec<&str> = args.to_vec();
     let whole_s = whole.to_string_lossy().into_owned();
     run.extend(["--no-plots", "--out", &whole_s]);
-    icp_eval(&run);
+    icp_eval_ok(&run);
     check(case, &whole, "");
     if shards < 2 || std::env::var_os(UPDATE_ENV).is_some() {
         return;
@@ -194,14 +171,14 @@ fn whole_and_sharded(case: &str, args: &[&str], shards: usize) {
         let (part_s, shard) = (part.to_string_lossy().into_owned(), format!("{k}/{shards}"));
         let mut run: Vec<&str> = args.to_vec();
         run.extend(["--no-plots", "--shard", &shard, "--out", &part_s]);
-        icp_eval(&run);
+        icp_eval_ok(&run);
         parts.push(part_s);
     }
     let merged = dir.join("merged").to_string_lossy().into_owned();
     let mut merge: Vec<&str> = vec!["merge"];
     merge.extend(parts.iter().map(String::as_str));
     merge.extend(["--no-plots", "--out", &merged]);
-    icp_eval(&merge);
+    icp_eval_ok(&merge);
     check(case, Path::new(&merged), "");
 }
 
@@ -291,7 +268,7 @@ fn marina_run_with_external_estimates() {
     let dir = scratch_dir("golden-marina");
     let out = dir.join("run").to_string_lossy().into_owned();
     let uri = format!("marina?data_dir={}", marina.display());
-    icp_eval(&[
+    icp_eval_ok(&[
         "run",
         "--dataset",
         &uri,
@@ -315,7 +292,7 @@ fn aces_run_from_the_global_search() {
     let dir = scratch_dir("golden-aces");
     let out = dir.join("run").to_string_lossy().into_owned();
     let uri = format!("carmen:{}", log.display());
-    icp_eval(&[
+    icp_eval_ok(&[
         "run",
         "--dataset",
         &uri,

@@ -9,21 +9,8 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use common::{icp_eval_command, scratch_dir};
+use common::{icp_eval_ok, scratch_dir};
 use scraper::{Html, Selector};
-
-fn icp_eval(args: &[&str]) {
-    let out = icp_eval_command()
-        .args(args)
-        .arg("--quiet")
-        .output()
-        .expect("icp-eval runs");
-    assert!(
-        out.status.success(),
-        "icp-eval {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 fn select(html: &Html, css: &str) -> Vec<String> {
     let sel = Selector::parse(css).expect("a valid selector");
@@ -115,7 +102,7 @@ const VARIANTS: [&str; 4] = ["K_ICP", "HD_ICP", "PL_ICP", "HD_GICP"];
 fn a_run_page_holds_its_tables_figures_flags_and_provenance() {
     let dir = scratch_dir("html-run");
     let out = dir.join("run");
-    icp_eval(&[
+    icp_eval_ok(&[
         "run",
         "--dataset",
         "synthetic",
@@ -152,7 +139,7 @@ fn a_run_page_holds_its_tables_figures_flags_and_provenance() {
 fn without_figures_the_page_says_so() {
     let dir = scratch_dir("html-no-plots");
     let out = dir.join("run");
-    icp_eval(&[
+    icp_eval_ok(&[
         "run",
         "--dataset",
         "synthetic",
@@ -186,7 +173,7 @@ fn compare_basin_and_merge_pages_add_their_results() {
     ];
     let mut whole = args.to_vec();
     whole.extend(["--out", cmp.to_str().unwrap()]);
-    icp_eval(&whole);
+    icp_eval_ok(&whole);
     let html = page(&cmp);
     every_figure_inline(&html, &cmp);
     every_variant_has_rows(&html, &["K_ICP", "HD_ICP"]);
@@ -194,7 +181,7 @@ fn compare_basin_and_merge_pages_add_their_results() {
     assert!(titles.contains("Paired comparison") && titles.contains("Parameter sweep"));
 
     let basin = dir.join("basin");
-    icp_eval(&[
+    icp_eval_ok(&[
         "basin",
         "--dataset",
         "synthetic",
@@ -221,14 +208,14 @@ fn compare_basin_and_merge_pages_add_their_results() {
         let mut sharded = args.to_vec();
         let shard = format!("{k}/2");
         sharded.extend(["--shard", &shard, "--out", part.to_str().unwrap()]);
-        icp_eval(&sharded);
+        icp_eval_ok(&sharded);
         parts.push(part);
     }
     let merged = dir.join("merged");
     let mut merge = vec!["merge"];
     merge.extend(parts.iter().map(|p| p.to_str().unwrap()));
     merge.extend(["--out", merged.to_str().unwrap()]);
-    icp_eval(&merge);
+    icp_eval_ok(&merge);
     let merged_html = page(&merged);
     every_figure_inline(&merged_html, &merged);
     assert_eq!(

@@ -39,3 +39,22 @@ pub fn scratch_dir(name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
+
+/// Runs `icp-eval ARGS --quiet` from the workspace root (so relative paths in the arguments are
+/// read and written as given), failing with its stderr.
+pub fn icp_eval_ok(args: &[&str]) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("eval sits in the workspace");
+    let out = icp_eval_command()
+        .current_dir(root)
+        .args(args)
+        .arg("--quiet")
+        .output()
+        .expect("icp-eval runs");
+    assert!(
+        out.status.success(),
+        "icp-eval {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
