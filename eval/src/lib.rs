@@ -4,10 +4,11 @@
 //!
 //! The modules follow the pipeline, and imports point one way, down this list:
 //! * [`data`]: what is read from a dataset beyond its scans (the reference's motion, times);
-//! * [`run`]: who registers what, from where: the setup, the runner, initial guesses, the start
-//!   gate, the result checks, sampled covariances and external estimates;
+//! * [`run`]: who registers what, from where: the setup and options, the runner, initial
+//!   guesses, the start gate, the result checks, lags, covariance modes and external estimates;
 //! * [`measure`]: one [`measure::record::PairRecord`] per variant and pair at the bottom, then
-//!   statistics, reference checks, outcomes, consistency, trajectory metrics, bounds, compare
+//!   statistics, reference checks and noise, loops, outcomes, consistency, trajectory metrics,
+//!   bounds, compare
 //!   and gate, as pure functions over records, and the [`RunReport`] built from them;
 //! * [`pipeline`]: [`evaluate`] (run, then measure);
 //! * [`render`]: one file per output format, each reading the report ([`write_outputs`]);

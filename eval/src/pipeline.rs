@@ -1,5 +1,5 @@
 //! The pipeline of one run: run every method over every pair ([`crate::run`]), then measure
-//! ([`crate::measure::build`]); [`crate::render::write_outputs`] renders the files.
+//! ([`crate::measure::build`]); `render::write_outputs` renders the files.
 
 use datasets::Dataset;
 use indicatif::ProgressBar;

@@ -70,9 +70,10 @@ impl Registration {
         self.inner.t_ref_src.rotation.angle().to_degrees()
     }
 
-    /// The `(3, 3)` covariance of `(tx m, ty m, theta rad)` as `icp-eval run` reports it (the
-    /// closed form, times 1.3 for GICP with sensor covariances), or None (a metric without
-    /// one, or a direction left unconstrained: see `covariance_unbounded`).
+    /// The `(3, 3)` covariance of `(tx m, ty m, theta rad)` as `icp-eval run` reports it under
+    /// its default mode, `extended` (the closed form, inflated for HD_GICP, widened to its
+    /// sector jackknife), or None (a metric without one, or a direction left unconstrained:
+    /// see `covariance_unbounded`).
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         let c = self.inner.covariance?;

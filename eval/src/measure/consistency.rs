@@ -1,4 +1,5 @@
-//! Whether the registrations' covariances are honest: the covariance modes of a run, NEES per
+//! Whether the registrations' covariances are honest (the modes they come from are
+//! `run::covariance`'s): NEES per
 //! pair where the reference is a rigid pose, ANEES and its χ² bounds per variant, and the
 //! standardised SOG and ΔCOG errors where the reference gives only the movement parameters.
 //!

@@ -79,7 +79,7 @@ pub fn results(report: &RunReport, time_s: impl Fn(usize) -> f64) -> Vec<(String
     out
 }
 
-/// The per-pair errors as evo result zips, `evo/<variant>_<error>.zip` (see [`evo::results`]).
+/// The per-pair errors as evo result zips, `evo/<variant>_<error>.zip` (see [`results`]).
 pub fn write_evo_results(
     out: &mut OutputDir,
     ds: &Dataset,

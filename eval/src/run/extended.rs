@@ -4,7 +4,7 @@
 //! model states. Real scans carry more: grazing-incidence and heavy-tailed range errors, mixed
 //! pixels, a tilted scan plane, motion within the revolution, objects that move. The extended
 //! covariance is the direction-wise larger ([`directional_max`]) of the closed form `C` (times
-//! its inflation, see the `consistency` module) and the grouped jackknife `C_jk` of the same final
+//! its inflation, `closed_form_inflation` in the `covariance` module) and the grouped jackknife `C_jk` of the same final
 //! pairs over eight 45° sectors (`icp_core::covariance::Sandwich::jackknife_covariance`): how
 //! far the solution moves when each sector's pairs are left out. `C_jk` sees the errors the
 //! residuals show, and errors shared within a sector that no single residual shows (a moving
