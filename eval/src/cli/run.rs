@@ -103,7 +103,8 @@ impl RunArgs {
     pub(crate) fn lags_unsharded(&self) -> Result<()> {
         if self.lags != 1 {
             anyhow::bail!(
-                "--lags {} with --shard: registrations across lags are not sharded yet; run without --shard",
+                "--lags {} cannot be sharded yet (--shard, or a Slurm or Kubernetes job that \
+                 shards itself): run it unsharded (--no-shard)",
                 self.lags
             );
         }
