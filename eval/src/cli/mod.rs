@@ -1,5 +1,5 @@
 //! The command line: one file per command with its arguments; [`Cli`] gathers them and
-//! [`run`] dispatches.
+//! [`run()`] dispatches.
 
 pub mod basin;
 pub mod common;

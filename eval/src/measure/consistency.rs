@@ -239,7 +239,7 @@ pub struct ReferenceNoise {
 pub struct ConsistencySummary {
     /// Where the covariances came from.
     pub mode: CovarianceMode,
-    /// The inflation applied to the closed form ([`closed_form_inflation`]; 1 for sampled).
+    /// The inflation applied to the closed form ([`crate::run::covariance::closed_form_inflation`]; 1 for sampled).
     pub inflation: f64,
     /// NEES figures, where the reference is a rigid pose.
     #[serde(default)]
@@ -269,7 +269,7 @@ pub struct ConsistencySummary {
 }
 
 /// Fills `row`'s covariance cells, movement-parameter standard errors and NEES from the
-/// registration `reg` (its `covariance`, as [`reported`] for `mode`) and the true `t_ref_src`
+/// registration `reg` (its `covariance`, as [`crate::run::extended::of_registration`] gives it for `mode`) and the true `t_ref_src`
 /// `truth`, where known. Nothing with [`CovarianceMode::Off`]; an unbounded covariance leaves
 /// the cells empty and says `unbounded` (never a NaN).
 pub fn fill(

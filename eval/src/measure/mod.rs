@@ -1,5 +1,5 @@
 //! Measure: pure functions over the run's records. [`record`] makes one record per variant and
-//! pair; [`build`] assembles the [`report::RunReport`] from them with [`stats`], [`reference`]
+//! pair; [`build`] assembles the [`report::RunReport`] from them with [`stats`], [`reference`](mod@reference)
 //! checks, [`outcome`]s, [`consistency`], [`trajectory`] metrics and [`bound`]s; [`compare`] and
 //! [`gate`] judge reports. The studies' measures ([`basin`], [`sweep`], [`scaling`]) sit here too.
 

@@ -25,7 +25,7 @@ pub struct PairRecord {
     pub reference: usize,
     /// Time between the scans, s.
     pub dt_s: f64,
-    /// `ok`, `degenerate`, `no_overlap` or `failed` (see [`PairStatus`]); every status but
+    /// `ok`, `degenerate`, `no_overlap` or `failed` (see [`crate::run::status::PairStatus`]); every status but
     /// `ok` is a failure of the variant on the pair.
     pub status: StatusKind,
     /// Why the status is not `ok`, with its figures (empty when it is).

@@ -128,8 +128,8 @@ pub struct VariantSummary {
     pub all_pairs: ErrorStats,
     /// Over those of them whose reference step is plausible.
     pub plausible_reference: ErrorStats,
-    /// Fraction of the run's pairs registered within [`outcome::SUCCESS_TRANS_M`] and
-    /// [`outcome::SUCCESS_ROT_DEG`] of the reference, flagged or not (a pair not registered is
+    /// Fraction of the run's pairs registered within [`crate::measure::outcome::SUCCESS_TRANS_M`] and
+    /// [`crate::measure::outcome::SUCCESS_ROT_DEG`] of the reference, flagged or not (a pair not registered is
     /// not a success), where the reference is a rigid pose.
     #[serde(default)]
     pub success_rate: Option<f64>,

@@ -5,7 +5,7 @@
 //! script, font or image is fetched; its tables sort on a click (a few lines of inline script).
 //!
 //! A command adds its own results to the run's page ([`Section`]s: `compare.md`, `sweep.md`,
-//! `basin.md` and their figures) and writes it once with [`write`].
+//! `basin.md` and their figures) and writes it once with [`write()`].
 
 use std::fmt::Write as _;
 

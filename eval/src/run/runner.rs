@@ -5,7 +5,7 @@
 //! Within a block rayon runs the pairs, each pair's variants one after the other in one
 //! workspace. Results are collected by index, so they do not depend on the thread count.
 //! External estimates ([`crate::run::estimates`]) run as methods too: each pair's estimate is
-//! assessed at its pose ([`icp_core::assess`]) and checked like a registration.
+//! assessed at its pose ([`icp_core::assess()`]) and checked like a registration.
 
 use std::collections::BTreeMap;
 use std::ops::Range;

@@ -138,7 +138,7 @@ impl EvalSetup {
     }
 
     /// Per variant, the spec a close start (the global search's pose or the reference,
-    /// [`InitMode::is_close`]) runs instead of it, when the chain has such starts and they are
+    /// [`crate::run::init::InitMode::is_close`]) runs instead of it, when the chain has such starts and they are
     /// gated ([`crate::run::start_gate`]); empty when none is.
     /// A variant with a stage written in user code (its spec does not build) runs as it is.
     pub fn close_start_specs(&self) -> Result<Vec<Option<VariantSpec>>, ConfigError> {
@@ -204,7 +204,7 @@ impl EvalSetup {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum ReferenceChecks {
-    /// Flag implausible steps ([`flag_implausible`]) and leave them out of the "plausible"
+    /// Flag implausible steps (`measure::reference::flag_implausible`) and leave them out of the "plausible"
     /// statistics: for measured references (GNSS, SLAM-corrected poses).
     #[default]
     On,
@@ -213,7 +213,7 @@ pub enum ReferenceChecks {
 }
 
 /// The consecutive pairs of `ds` (and those skipped) that `setup` registers, once `setup` is
-/// checked against `ds`: what [`evaluate`] and a shard of a run (see [`shard`]) start from.
+/// checked against `ds`: what `pipeline::evaluate` and a shard of a run (the `shard` module) start from.
 pub fn checked_pairs(
     ds: &Dataset,
     setup: &EvalSetup,

@@ -17,7 +17,7 @@
 //! Readers: [`tum`] and [`pair_csv`].
 //!
 //! `icp-eval run` and `compare` take `--estimates NAME=FILE` ([`EstimatesSpec`]); the runner
-//! assesses each estimate at its pose like a registration ([`icp_core::assess`]: the same
+//! assesses each estimate at its pose like a registration ([`icp_core::assess()`]: the same
 //! overlap, conditioning and global checks flag it), and the report treats the estimator as
 //! one more variant: the same pairs, statistics, figures, `compare` verdicts and gate. It has
 //! no iterations, timing or covariance (empty cells, `null` in summary.json), and the file's
