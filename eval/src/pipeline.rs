@@ -35,7 +35,7 @@ pub fn evaluate(
     let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
     progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
-    let lagged = lags::run(ds, &pairs, setup.lags, methods, &plan, progress)?;
+    let lagged = lags::run(ds, lag_pairs, setup.lags, methods, &plan, progress);
     if setup.covariance == CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }

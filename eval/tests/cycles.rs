@@ -87,9 +87,8 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
     let methods = Methods::registrars(&registrars);
     let progress = ProgressBar::hidden();
     let mut runs = run_all(&ds, &pairs, methods, &plan, &progress);
-    let lagged = lags::run(&ds, &pairs, 2, methods, &plan, &progress)
-        .unwrap()
-        .unwrap();
+    let lag_pairs = lags::lag_pairs(&pairs, 2).unwrap();
+    let lagged = lags::run(&ds, lag_pairs, 2, methods, &plan, &progress).unwrap();
     let clean = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
     assert!(clean.iter().all(Option::is_none), "{clean:?}");
     // Pair 6 in a wrong minimum: half a metre along and 2° off.

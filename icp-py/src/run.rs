@@ -10,7 +10,7 @@ use std::str::FromStr;
 use eval::measure::compare::{self as comparisons, CompareOptions};
 use eval::pipeline::evaluate;
 use eval::render::outdir::OutputDir;
-use eval::render::studies::write_comparison;
+use eval::render::studies::{comparison_json, write_comparison};
 use eval::render::write_outputs;
 use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::EstimatesSpec;
@@ -361,7 +361,7 @@ pub fn compare<'py>(
         seed: bootstrap_seed,
     };
     let rows = comparisons::compare(&run.report, &compare_options);
-    let json = serde_json::json!({ "options": compare_options, "comparisons": rows });
+    let json = comparison_json(&rows, &compare_options);
     py.detach(|| {
         write_comparison(
             &mut run.dir,

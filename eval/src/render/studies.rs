@@ -42,8 +42,7 @@ pub fn write_comparison(
     plots: bool,
 ) -> Result<String, EvalError> {
     let md = compare::compare_md(report, rows, options);
-    let json = serde_json::json!({ "options": options, "comparisons": rows });
-    write_md_json(dir, "compare", &md, &json)?;
+    write_md_json(dir, "compare", &md, &comparison_json(rows, options))?;
     let mut sections = vec![section("Paired comparison", md, None)];
     if let Some(result) = sweep {
         let md = sweep::sweep_md(result);
@@ -82,6 +81,11 @@ pub fn write_scaling(dir: &mut OutputDir, result: &ScalingResult) -> Result<Stri
     write_md_json(dir, "scaling", &md, result)?;
     figures::write_scaling(dir, result)?;
     Ok(md)
+}
+
+/// `compare.json`: the options and every comparison.
+pub fn comparison_json(rows: &[PairedComparison], options: &CompareOptions) -> serde_json::Value {
+    serde_json::json!({ "options": options, "comparisons": rows })
 }
 
 fn section(title: &str, markdown: String, svg: Option<(String, String)>) -> Section {

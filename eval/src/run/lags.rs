@@ -67,19 +67,18 @@ pub fn lag_pairs(pairs: &[ScanPair], lags: usize) -> Result<Vec<LagPair>, EvalEr
         .collect())
 }
 
-/// Registers every pair across lags `2..=lags` with the registrars of `methods` as `plan`
-/// says; `None` for `lags` 1.
+/// Registers `lag_pairs` (the [`lag_pairs`] of a run across `lags`) with the registrars of
+/// `methods` as `plan` says; `None` for `lags` 1.
 pub fn run(
     ds: &Dataset,
-    pairs: &[ScanPair],
+    lag_pairs: Vec<LagPair>,
     lags: usize,
     methods: Methods<'_>,
     plan: &RunPlan<'_>,
     progress: &ProgressBar,
-) -> Result<Option<LagRuns>, EvalError> {
-    let lag_pairs = lag_pairs(pairs, lags)?;
+) -> Option<LagRuns> {
     if lags == 1 {
-        return Ok(None);
+        return None;
     }
     let registrars = Methods {
         external: &[],
@@ -87,10 +86,10 @@ pub fn run(
     };
     let scan_pairs: Vec<ScanPair> = lag_pairs.iter().map(|p| p.pair).collect();
     let runs = runner::run_all(ds, &scan_pairs, registrars, plan, progress);
-    Ok(Some(LagRuns {
+    Some(LagRuns {
         pairs: lag_pairs,
         runs,
-    }))
+    })
 }
 
 #[cfg(test)]
