@@ -111,6 +111,26 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
         alternatives_agree,
         "its neighbours' loops agree: pair 6 alone is wrong"
     );
+    // A flagged registration is no evidence: with pair 7 flagged, pair 6 is judged by the
+    // one loop left (through pair 5), and still flagged; with the lag-2 registration 5 → 7
+    // flagged too, no trusted loop is left and the loops say nothing.
+    let degenerate = PairStatus::Degenerate { cond_ratio: 1e-4 };
+    runs.per_variant[0][7].status = degenerate.clone();
+    let flags = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
+    let Some(PairStatus::Inconsistent { alternatives, .. }) = &flags[6] else {
+        panic!("{flags:?}")
+    };
+    assert_eq!(*alternatives, 1, "{flags:?}");
+    let across_5 = lagged
+        .pairs
+        .iter()
+        .position(|p| p.lag == 2 && p.first == 5)
+        .unwrap();
+    let mut lagged_runs = lagged.runs.per_variant[0].clone();
+    lagged_runs[across_5].status = degenerate;
+    let flags = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged_runs);
+    assert!(flags[6].is_none(), "{flags:?}");
+    runs.per_variant[0][7].status = PairStatus::Ok;
     // A smaller error (0.2 m, 1°) is not wrong by the field's thresholds: not flagged.
     let reg = runs.per_variant[0][6].result.as_mut().unwrap();
     reg.t_ref_src.translation.vector.x -= 0.3;
@@ -120,8 +140,9 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
     assert!(PairStatus::Inconsistent {
         apart_m: 0.5,
         apart_deg: 2.0,
-        alternatives_apart_m: 0.01,
-        alternatives_apart_deg: 0.1,
+        alternatives: 2,
+        alternatives_apart_m: Some(0.01),
+        alternatives_apart_deg: Some(0.1),
         alternatives_agree: true,
     }
     .is_failure());

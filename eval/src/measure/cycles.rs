@@ -15,17 +15,19 @@
 //!
 //! # The flag
 //! A lag-1 registration `A = k → k+1` has two alternatives across lag 2: `(k−1 → k+1)·(k−1 →
-//! k)⁻¹` and `(k+1 → k+2)⁻¹·(k → k+2)`, each from registrations other than `A` (registered,
-//! whatever their own status: a neighbour flagged degenerate still gives a number). `A` is
-//! flagged `inconsistent` when it is farther than the field's "wrong" thresholds
-//! ([`crate::measure::outcome::WRONG_TRANS_M`], [`crate::measure::outcome::WRONG_ROT_DEG`]:
-//! 0.3 m or 3°) from both: no loop through it closes. The reason says whether the two
-//! alternatives agree with each other (within the success thresholds, 0.1 m and 1°: then `A`
-//! alone is wrong) or not (failures in a row, or a wrong registration across the lag as
-//! well). The thresholds are the field's, not tuned on a log. Requiring the alternatives to
-//! agree as well caught none of the wrong registrations on aces from the global search (they
-//! come in runs there); see eval/README.md. A first or last pair has one alternative and is
-//! not judged.
+//! k)⁻¹` and `(k+1 → k+2)⁻¹·(k → k+2)`, each from registrations other than `A`. An
+//! alternative is *trusted* when both its registrations have status ok: a registration the
+//! tool already flags (degenerate, suspect, …) is no evidence against its neighbour. `A` is
+//! flagged `inconsistent` when it has at least one trusted alternative and is farther than the
+//! field's "wrong" thresholds ([`crate::measure::outcome::WRONG_TRANS_M`],
+//! [`crate::measure::outcome::WRONG_ROT_DEG`]: 0.3 m or 3°) from every one: no trusted loop
+//! through it closes. A first or last pair, or one whose neighbour is flagged, is judged by
+//! the one alternative it has. The reason gives how many alternatives spoke and, for two,
+//! whether they agree with each other (within the success thresholds, 0.1 m and 1°: then `A`
+//! alone is wrong) or not (failures in a row). The thresholds are the field's, not tuned on
+//! a log. Two earlier rules are in eval/README.md with their figures: requiring the two
+//! alternatives to agree caught none of aces' wrong registrations (they come in runs), and
+//! counting flagged neighbours as evidence flagged good registrations beside failed ones.
 
 use icp_core::motion::wrap_deg;
 use icp_core::{Covariance, Registration};
@@ -115,9 +117,17 @@ fn registered(run: &PairRun) -> Option<&Registration> {
     run.result.as_ref().ok()
 }
 
+/// A registration of a run that may speak against another: registered, and its own status
+/// ok. A registration the tool already flags is no evidence against its neighbours.
+fn trusted(run: &PairRun) -> Option<Isometry2<f64>> {
+    (run.status == PairStatus::Ok)
+        .then(|| registered(run).map(|r| r.t_ref_src))
+        .flatten()
+}
+
 /// Per lag-1 registration of one variant (`lag1`, the run's pairs in order; `lagged`, its
 /// registrations across lags in `lags.pairs`' order), the `inconsistent` status it earns;
-/// `None` where the loops do not say so.
+/// `None` where the loops do not say so (no trusted alternative, or one within reach).
 pub fn inconsistent(
     lag1: &[PairRun],
     lags: &LagRuns,
@@ -128,29 +138,33 @@ pub fn inconsistent(
             .iter()
             .zip(lagged)
             .find(|(p, _)| p.lag == 2 && p.first == first)
-            .and_then(|(_, run)| registered(run))
-            .map(|r| r.t_ref_src)
+            .and_then(|(_, run)| trusted(run))
     };
+    let before = |i: usize| Some(direct(i.checked_sub(1)?)? * trusted(&lag1[i - 1])?.inverse());
+    let after = |i: usize| Some(trusted(lag1.get(i + 1)?)?.inverse() * direct(i)?);
     (0..lag1.len())
         .map(|i| {
             let a = registered(&lag1[i])?.t_ref_src;
-            let before = direct(i.checked_sub(1)?)? * registered(&lag1[i - 1])?.t_ref_src.inverse();
-            let after = registered(lag1.get(i + 1)?)?.t_ref_src.inverse() * direct(i)?;
-            let alternatives = apart(&before, &after);
-            let (to_before, to_after) = (apart(&a, &before), apart(&a, &after));
-            (wrong(to_before) && wrong(to_after)).then(|| {
-                let nearer = if to_before.0 + to_before.1 / 10.0 <= to_after.0 + to_after.1 / 10.0 {
-                    to_before
-                } else {
-                    to_after
-                };
-                PairStatus::Inconsistent {
-                    apart_m: nearer.0,
-                    apart_deg: nearer.1,
-                    alternatives_apart_m: alternatives.0,
-                    alternatives_apart_deg: alternatives.1,
-                    alternatives_agree: within_success(alternatives),
-                }
+            let alternatives: Vec<Isometry2<f64>> = before(i).into_iter().chain(after(i)).collect();
+            let apart_each: Vec<(f64, f64)> = alternatives.iter().map(|b| apart(&a, b)).collect();
+            if apart_each.is_empty() || !apart_each.iter().all(|&d| wrong(d)) {
+                return None;
+            }
+            let nearer = apart_each
+                .iter()
+                .copied()
+                .min_by(|x, y| (x.0 + x.1 / 10.0).total_cmp(&(y.0 + y.1 / 10.0)))?;
+            let between = match alternatives[..] {
+                [b, c] => Some(apart(&b, &c)),
+                _ => None,
+            };
+            Some(PairStatus::Inconsistent {
+                apart_m: nearer.0,
+                apart_deg: nearer.1,
+                alternatives: alternatives.len(),
+                alternatives_apart_m: between.map(|d| d.0),
+                alternatives_apart_deg: between.map(|d| d.1),
+                alternatives_agree: between.is_some_and(within_success),
             })
         })
         .collect()

@@ -36,19 +36,21 @@ pub enum PairStatus {
         /// What the global search saw.
         check: GlobalCheck,
     },
-    /// Registered, but neither loop through its neighbours across lag 2 closes (`--lags`):
-    /// it is more than 0.3 m or 3° from both alternatives (the loops are measured in
-    /// `measure/cycles.rs`).
+    /// Registered, but no trusted loop through its neighbours across lag 2 closes
+    /// (`--lags`): it is more than 0.3 m or 3° from every alternative whose registrations are
+    /// all ok, and there is at least one (the loops are measured in `measure/cycles.rs`).
     Inconsistent {
-        /// How far it is from the nearer of the two, m.
+        /// How far it is from the nearer alternative, m.
         apart_m: f64,
         /// …and degrees.
         apart_deg: f64,
-        /// How far the two are from each other, m.
-        alternatives_apart_m: f64,
+        /// How many trusted alternatives spoke (1 or 2).
+        alternatives: usize,
+        /// With two, how far they are from each other, m.
+        alternatives_apart_m: Option<f64>,
         /// …and degrees.
-        alternatives_apart_deg: f64,
-        /// Whether they agree (within 0.1 m and 1°): then this registration alone is wrong.
+        alternatives_apart_deg: Option<f64>,
+        /// Whether two agree (within 0.1 m and 1°): then this registration alone is wrong.
         alternatives_agree: bool,
     },
     /// No registration: the method refused the input or broke down.
@@ -142,13 +144,20 @@ impl fmt::Display for PairStatus {
             Self::Inconsistent {
                 apart_m,
                 apart_deg,
-                alternatives_apart_m,
-                alternatives_apart_deg,
+                alternatives_apart_m: Some(between_m),
+                alternatives_apart_deg: Some(between_deg),
                 alternatives_agree,
+                ..
             } => write!(
                 f,
-                "{apart_m:.2} m and {apart_deg:.1}° from the nearer of the two loops through its neighbours across lag 2, which {} each other ({alternatives_apart_m:.2} m and {alternatives_apart_deg:.1}° apart)",
+                "{apart_m:.2} m and {apart_deg:.1}° from the nearer of the two loops through its neighbours across lag 2, which {} each other ({between_m:.2} m and {between_deg:.1}° apart)",
                 if *alternatives_agree { "agree with" } else { "disagree with" }
+            ),
+            Self::Inconsistent {
+                apart_m, apart_deg, ..
+            } => write!(
+                f,
+                "{apart_m:.2} m and {apart_deg:.1}° from the one trusted loop through its neighbours across lag 2 (the other's registrations are flagged or missing)"
             ),
             Self::Failed { error } => write!(f, "{error}"),
         }

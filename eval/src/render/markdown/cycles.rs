@@ -17,7 +17,7 @@ pub fn cycles_md(out: &mut String, report: &RunReport) {
     }
     let _ = writeln!(
         out,
-        "\n## Loops across lags (`cycles.csv`)\n\nEach consecutive registration chained against the direct one across the lag; a registration more than 0.3 m or 3° from both loops through its neighbours across lag 2 is flagged `inconsistent` (a failure, counted in the failure rate above). Errors that act like a shift of one scan cancel around a loop: loops check gross errors, not covariances.\n"
+        "\n## Loops across lags (`cycles.csv`)\n\nEach consecutive registration chained against the direct one across the lag; a registration more than 0.3 m or 3° from every trusted loop through its neighbours across lag 2 (one whose registrations all have status ok), with at least one, is flagged `inconsistent` (a failure, counted in the failure rate above). Errors that act like a shift of one scan cancel around a loop: loops check gross errors, not covariances.\n"
     );
     let _ = writeln!(
         out,
