@@ -157,6 +157,7 @@ def run(
     global_rotation: str = "histogram",
     covariance: str = "extended",
     estimates: Sequence[str] = (),
+    lags: int = 1,
     matcher: str | None = None,
     huber_c: float | None = None,
     seed: int | None = None,
@@ -167,7 +168,8 @@ def run(
 ) -> dict[str, Any]:
     """`icp-eval run` with its options as keywords: variants (default the four of Table 1)
     and weightings {NAME: (BASE_VARIANT, fn)} over every consecutive pair of uri; writes the
-    run's files into out and returns summary.json as a dict."""
+    run's files into out and returns summary.json as a dict. lags > 1 also registers k → k+ℓ
+    for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does."""
 
 def compare(
     uri: str,

@@ -1,7 +1,7 @@
 //! The pipeline of one run: run every method over every pair ([`crate::run`]), then measure
 //! ([`crate::measure::build`]); `render::write_outputs` renders the files.
 
-use datasets::Dataset;
+use datasets::{Dataset, ScanPair, SkippedPair};
 use indicatif::ProgressBar;
 
 use crate::error::EvalError;
@@ -9,9 +9,9 @@ use crate::measure::build;
 use crate::measure::cycles;
 use crate::measure::report::RunReport;
 use crate::run::covariance::CovarianceMode;
-use crate::run::lags;
+use crate::run::lags::{self, LagRuns};
 use crate::run::restarts;
-use crate::run::runner;
+use crate::run::runner::{self, Runs};
 use crate::run::sampled;
 use crate::run::setup::{checked_pairs, EvalSetup, GlobalChecks};
 use crate::run::status::PairStatus;
@@ -43,11 +43,25 @@ pub fn evaluate(
         restarts::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
     progress.finish_and_clear();
+    Ok(report(ds, &pairs, skipped, setup, runs, lagged.as_ref()))
+}
+
+/// The report of a run's registrations `runs` of `pairs` (and, with `--lags`, those across
+/// lags `lagged`, whose loops flag the inconsistent ones first): what a single run and the
+/// merge of a sharded one both make, once every registration is in.
+pub fn report(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    skipped: Vec<SkippedPair>,
+    setup: &EvalSetup,
+    mut runs: Runs,
+    lagged: Option<&LagRuns>,
+) -> RunReport {
     let Some(lagged) = lagged else {
-        return Ok(build::build(ds, &pairs, skipped, setup, &runs));
+        return build::build(ds, pairs, skipped, setup, &runs);
     };
     // The loops' flags join the others before the records are made.
-    let checked = cycles::check(setup, &runs, &lagged);
+    let checked = cycles::check(setup, &runs, lagged);
     for (variant, flags) in runs.per_variant.iter_mut().zip(&checked.flags) {
         for (run, flag) in variant.iter_mut().zip(flags) {
             if let (Some(flag), PairStatus::Ok) = (flag, &run.status) {
@@ -55,10 +69,10 @@ pub fn evaluate(
             }
         }
     }
-    let mut report = build::build(ds, &pairs, skipped, setup, &runs);
+    let mut report = build::build(ds, pairs, skipped, setup, &runs);
     for (v, summary) in report.variants.iter_mut().zip(checked.summaries) {
         v.cycles = Some(summary);
     }
     report.cycles = checked.records;
-    Ok(report)
+    report
 }

@@ -6,7 +6,7 @@ use eval::error::EvalError;
 use eval::measure::basin::BasinOptions;
 use eval::run::setup::EvalSetup;
 use eval::run::setup::OffsetChoice;
-use eval::studies::basin::run;
+use eval::studies::basin::{check_lags, run};
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 
@@ -80,4 +80,12 @@ fn the_basin_needs_a_rigid_reference_and_valid_options() {
     )
     .unwrap_err();
     assert!(matches!(e, EvalError::NeedsRigidReference { .. }), "{e}");
+}
+
+#[test]
+fn the_basin_refuses_lags_beyond_one() {
+    assert!(check_lags(1).is_ok());
+    let e = check_lags(2).unwrap_err();
+    assert!(matches!(e, EvalError::Lags { lags: 2, .. }), "{e}");
+    assert!(e.to_string().contains("run --lags"), "{e}");
 }

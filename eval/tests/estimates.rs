@@ -5,12 +5,12 @@ mod common;
 
 use datasets::synthetic::{generate, Scenario};
 use datasets::{Dataset, ScanPair};
+use eval::error::EstimatesError;
 use eval::pipeline::evaluate;
 use eval::render::outdir::OutputDir;
 use eval::render::write_outputs;
 use eval::run::estimates::load;
 use eval::run::estimates::parse_spec;
-use eval::run::estimates::EstimatesError;
 use eval::run::estimates::EstimatesSpec;
 use eval::run::setup::EvalSetup;
 use eval::run::setup::OffsetChoice;

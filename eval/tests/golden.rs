@@ -243,6 +243,57 @@ fn synthetic_compare_with_a_sweep() {
 }
 
 #[test]
+fn synthetic_run_across_lags() {
+    // Identity starts 2 s apart: some registrations fail and the loops flag them, two of
+    // them (pairs 9 and 10) across the first shard's edge (units 0..10 of 39).
+    whole_and_sharded(
+        "synthetic-lags",
+        &[
+            "run",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "40",
+            "--dt",
+            "2",
+            "--variants",
+            "K_ICP,HD_ICP,PL_ICP",
+            "--lags",
+            "2",
+        ],
+        4,
+    );
+}
+
+#[test]
+fn synthetic_compare_across_lags_with_chained_starts() {
+    // A chained start cuts the plan by variants; the sweep's runs register no lag.
+    whole_and_sharded(
+        "synthetic-lags-chained",
+        &[
+            "compare",
+            "--dataset",
+            "synthetic",
+            "--scans",
+            "30",
+            "--dt",
+            "2",
+            "--variants",
+            "K_ICP,HD_ICP,PL_ICP",
+            "--init",
+            "constant-velocity,identity",
+            "--lags",
+            "3",
+            "--sweep",
+            "huber_c=1,3",
+            "--bootstrap",
+            "200",
+        ],
+        4,
+    );
+}
+
+#[test]
 fn synthetic_basin() {
     whole_and_sharded(
         "synthetic-basin",

@@ -5,10 +5,10 @@
 use datasets::synthetic::{generate, Scenario};
 use datasets::Dataset;
 use eval::error::EvalError;
+use eval::error::InitError;
 use eval::measure::report::RunReport;
 use eval::pipeline::evaluate;
 use eval::run::init::InitChain;
-use eval::run::init::InitError;
 use eval::run::init::InitMode;
 use eval::run::setup::EvalSetup;
 use eval::run::setup::OffsetChoice;
@@ -163,7 +163,7 @@ fn a_reference_start_needs_a_rigid_reference() {
         matches!(
             e,
             EvalError::Init(InitError::Unavailable {
-                mode: InitMode::Reference,
+                mode: "reference",
                 ..
             })
         ),

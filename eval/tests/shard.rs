@@ -66,6 +66,10 @@ fn summary_without_timing(text: &str) -> serde_json::Value {
     let mut json: serde_json::Value = serde_json::from_str(text).unwrap();
     for v in json["variants"].as_array_mut().unwrap() {
         assert!(v.as_object_mut().unwrap().remove("timing").is_some());
+        if let Some(cycles) = v["cycles"].as_object_mut() {
+            assert!(cycles.remove("lag_time_per_pair_us").is_some());
+            assert!(cycles.remove("lag_search_time_per_pair_us").is_some());
+        }
     }
     if let Some(search) = json["global_search"].as_object_mut() {
         assert!(search.remove("timing").is_some());
@@ -161,6 +165,43 @@ fn run_shards_merge_to_the_single_run_with_identity_and_constant_velocity_starts
             assert!(files >= 7, "{files} files compared");
         }
     }
+}
+
+/// Loops across lags: every shard registers the lag pairs of its own units, the merge judges
+/// the loops, and the files (report.html, and the `inconsistent` statuses of pairs.csv) are
+/// the single run's for every cut, shard counts whose edges split loops included.
+#[test]
+fn lag_shards_merge_to_the_single_run_with_its_inconsistent_flags() {
+    for init in ["identity", "constant-velocity,identity"] {
+        let mut base: Vec<&str> = RUN.to_vec();
+        base.extend(["--dt", "2", "--init", init, "--lags", "3"]);
+        let dir = common::scratch_dir(&format!("shard_lags_{}", init.len()));
+        for (merged, files) in merged_equal_single(&base, &dir, &[2, 5]) {
+            assert!(files >= 8, "{files} files compared");
+            let pairs = std::fs::read_to_string(merged.join("pairs.csv")).unwrap();
+            assert!(
+                pairs.contains(",inconsistent,"),
+                "no loop flagged: a weak test"
+            );
+            assert!(merged.join("cycles.csv").exists());
+        }
+    }
+    // `--lags` beyond the run is refused before a shard runs.
+    let dir = common::scratch_dir("shard_lags_too_long");
+    let o = icp_eval(&args(
+        &RUN,
+        &[
+            "--lags",
+            "30",
+            "--shard",
+            "0/2",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+    ));
+    assert_eq!(o.status.code(), Some(2));
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(said.contains("--lags 30: the run has 29 pairs"), "{said}");
 }
 
 /// A chain with a close start and a sequential one (`global,constant-velocity`) is cut by
@@ -342,13 +383,15 @@ fn part_without_timing(path: &Path) -> Vec<u8> {
     let (_, mut part) = eval::shard::merge::read_part(path).unwrap();
     part.command_line.clear();
     for (_, results) in &mut part.slices {
-        if let eval::shard::SliceResults::Runs(runs) = results {
-            runs.per_variant
-                .iter_mut()
-                .flatten()
-                .for_each(|r| r.time_us = r.time_us.map(|_| 0.0));
-            runs.searches.iter_mut().for_each(|s| s.time_us = 0.0);
-            runs.prepare_us.iter_mut().for_each(|t| *t = 0.0);
+        if let eval::shard::SliceResults::Runs { runs, lagged } = results {
+            for runs in std::iter::once(runs).chain(lagged.as_mut().map(|l| &mut l.runs)) {
+                runs.per_variant
+                    .iter_mut()
+                    .flatten()
+                    .for_each(|r| r.time_us = r.time_us.map(|_| 0.0));
+                runs.searches.iter_mut().for_each(|s| s.time_us = 0.0);
+                runs.prepare_us.iter_mut().for_each(|t| *t = 0.0);
+            }
         }
     }
     part.to_bytes().unwrap()
@@ -358,7 +401,7 @@ fn part_without_timing(path: &Path) -> Vec<u8> {
 fn re_running_a_shard_rewrites_the_same_part() {
     let dir = common::scratch_dir("shard_again");
     let mut base: Vec<&str> = RUN.to_vec();
-    base.extend(["--init", "global"]);
+    base.extend(["--init", "global", "--lags", "2"]);
     let part_dir = &shard_dirs(&base, 3, &dir)[1];
     let file = Path::new(part_dir).join("part-1-of-3.cbor");
     let first = part_without_timing(&file);
@@ -370,15 +413,19 @@ fn re_running_a_shard_rewrites_the_same_part() {
     let (_, part) = eval::shard::merge::read_part(&file).unwrap();
     assert!(part.command_line.iter().any(|a| a == "--threads"));
     assert_eq!(part.shard, Shard { index: 1, count: 3 });
-    let runs = match &part.slices[0].1 {
-        eval::shard::SliceResults::Runs(r) => r,
+    let (runs, lagged) = match &part.slices[0].1 {
+        eval::shard::SliceResults::Runs { runs, lagged } => (runs, lagged.as_ref().unwrap()),
         other => panic!("{other:?}"),
     };
-    assert_eq!(
-        runs.searches.len(),
-        part.slices[0].0.units.len(),
-        "searches kept"
-    );
+    let units = &part.slices[0].0.units;
+    assert_eq!(runs.searches.len(), units.len(), "searches kept");
+    // The lag pairs whose first consecutive pair is in the slice, and only those.
+    assert_eq!(lagged.pairs.len(), units.len());
+    assert!(lagged
+        .pairs
+        .iter()
+        .all(|p| units.contains(&p.first) && p.lag == 2));
+    assert_eq!(lagged.runs.searches.len(), units.len());
 }
 
 #[test]

@@ -17,12 +17,12 @@ use eval::run::estimates::EstimatesSpec;
 use eval::run::init::InitChain;
 use eval::run::options::override_sensor;
 use eval::run::options::BuiltinOptions;
+use eval::run::options::RunOptions;
 use eval::run::setup::GlobalChecks;
 use eval::run::setup::OffsetChoice;
 use eval::run::setup::ReferenceChecks;
 use eval::run::start_gate::StartGate;
 use eval::run::status::StatusKind;
-use eval::shard::RunOptions;
 use icp_core::global::{GlobalParams, RotationMode};
 use icp_core::sensor::SensorOverrides;
 use icp_core::variants::{builtin, builtin_names, VariantSpec, TABLE1};
@@ -37,7 +37,7 @@ use crate::register::variant_spec;
 use crate::weighting::PyWeighting;
 
 /// The keyword options, named as the command line's flags (with `_` for `-`).
-const OPTIONS: [&str; 16] = [
+const OPTIONS: [&str; 17] = [
     "reference_offset",
     "reference_checks",
     "init",
@@ -47,6 +47,7 @@ const OPTIONS: [&str; 16] = [
     "global_rotation",
     "covariance",
     "estimates",
+    "lags",
     "matcher",
     "huber_c",
     "seed",
@@ -146,6 +147,7 @@ impl<'py> Options<'py> {
             start_gate: self.parse::<StartGate>("start_gate", "auto")?,
             covariance: self.parse::<CovarianceMode>("covariance", "extended")?,
             estimates,
+            lags: self.parse::<usize>("lags", "1")?,
         })
     }
 

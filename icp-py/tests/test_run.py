@@ -141,6 +141,8 @@ def test_a_bad_weighting_names_the_variant_and_the_iteration(tmp_path, fn, messa
         (dict(covariance="guess"), icp_bench.ConfigError, "unknown mode"),
         (dict(sensor={"sigma_alpha_deg": -1}), icp_bench.ConfigError, "option sensor"),
         (dict(threads=0), icp_bench.ConfigError, "option threads: at least 1"),
+        (dict(lags=0), icp_bench.ConfigError, "--lags 0: a lag is at least 1"),
+        (dict(lags=99), icp_bench.ConfigError, "--lags 99: the run has 7 pairs"),
         (dict(colour="red"), icp_bench.ConfigError, 'unknown option "colour"'),
         (dict(variants=[]), icp_bench.ConfigError, "no variant to run"),
     ],
@@ -166,6 +168,33 @@ def test_run_options_reach_the_harness(tmp_path):
     assert isinstance(e.value, OSError)
     icp_bench.run(SMALL, ["HD_ICP"], out=tmp_path / "mine", plots=False, force=True)
     assert (tmp_path / "mine" / "notes.txt").exists()
+
+
+def test_lags_write_the_loops_the_command_line_writes(tmp_path, icp_eval):
+    import subprocess
+
+    py = tmp_path / "py"
+    s = icp_bench.run(SMALL, ["HD_ICP", "PL_ICP"], out=py, plots=False, lags=2)
+    assert s["config"]["lags"] == 2
+    # 8 scans: 7 consecutive pairs, 6 loops across lag 2 per variant.
+    assert [v["cycles"]["triangles"] for v in s["variants"]] == [6, 6]
+    cli = tmp_path / "cli"
+    subprocess.run([icp_eval, "run", "--dataset", SMALL, "--variants", "HD_ICP,PL_ICP",
+                    "--lags", "2", "--no-plots", "--quiet", "--out", cli],
+                   check=True, capture_output=True)
+    # cycles.csv holds no timing: byte for byte.
+    assert (py / "cycles.csv").read_bytes() == (cli / "cycles.csv").read_bytes()
+    assert len((py / "cycles.csv").read_text().splitlines()) == 1 + 2 * 6
+    skip = {"time_us"}
+    with open(py / "pairs.csv", newline="") as a, open(cli / "pairs.csv", newline="") as b:
+        for x, y in zip(csv.DictReader(a), csv.DictReader(b), strict=True):
+            assert {k: v for k, v in x.items() if k not in skip} == {
+                k: v for k, v in y.items() if k not in skip
+            }
+    # Without the option, a run registers consecutive pairs only.
+    plain = icp_bench.run(SMALL, ["HD_ICP"], out=tmp_path / "plain", plots=False)
+    assert plain["config"]["lags"] == 1
+    assert not (tmp_path / "plain" / "cycles.csv").exists()
 
 
 def test_a_python_variant_enters_compare_and_the_gate(tmp_path, icp_eval):

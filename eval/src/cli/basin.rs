@@ -37,6 +37,11 @@ pub(crate) struct BasinArgs {
     /// Run every n-th pair only.
     #[arg(long, default_value_t = 1)]
     pub(crate) pair_stride: usize,
+    /// Only 1: the basin makes no loops across lags (`run --lags` does). Each start is judged
+    /// against the true motion, and a loop would chain the independent starts of
+    /// neighbouring pairs, so it says nothing about one start.
+    #[arg(long, default_value_t = 1)]
+    pub(crate) lags: usize,
     /// Output directory.
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -47,6 +52,7 @@ pub(crate) struct BasinArgs {
 }
 
 pub(crate) fn basin_cmd(args: BasinArgs) -> Result<ExitCode> {
+    basin::check_lags(args.lags)?;
     let ds = load_dataset(&args.data)?;
     let setup = EvalSetup::from_specs(
         &resolve_variants(&args.variants, &ds)?,

@@ -52,7 +52,6 @@ pub(crate) fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         })
         .transpose()?;
     if let Some(shard) = shard_of(&run.shard)? {
-        run.lags_unsharded()?;
         let work = Work::Compare {
             run: run.run_options()?,
             options,
@@ -60,10 +59,7 @@ pub(crate) fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
         };
         return run_shard_cmd(&ds, variants, work, shard, &run.out, &run.common);
     }
-    let setup = run
-        .run_options()?
-        .setup(&variants, &ds)?
-        .with_lags(run.lags);
+    let setup = run.run_options()?.setup(&variants, &ds)?;
     note_estimates(&setup);
     let (report, mut dir) = evaluate_and_write(&ds, &setup, &run.out, &run.common)?;
     let swept = match sweep {

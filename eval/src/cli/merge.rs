@@ -6,16 +6,17 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use eval::measure::basin::report as basin_report;
-use eval::measure::build::build;
 use eval::measure::compare::compare;
 use eval::measure::report::RunReport;
 use eval::measure::sweep::{points_of, SweepResult};
+use eval::pipeline::report;
 use eval::render::markdown::table_md;
 use eval::render::outdir::OutputDir;
 use eval::render::studies::{write_basin, write_comparison};
 use eval::render::write_outputs;
+use eval::run::lags::lag_pairs;
 use eval::run::setup::checked_pairs;
-use eval::shard::merge::{check_shape, merge, MergedRun};
+use eval::shard::merge::{check_lag_shape, check_shape, merge, MergedRun};
 use eval::shard::DatasetIdentity;
 use eval::shard::Work;
 use eval::studies::basin::chosen_pairs;
@@ -91,14 +92,32 @@ pub(crate) fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
         );
     }
     let report_of = |i: usize| -> Result<RunReport> {
-        let MergedRun::Runs(runs) = &merged.runs[i] else {
+        let MergedRun::Runs { runs, lagged } = &merged.runs[i] else {
             bail!("run {i} of the plan holds basin rows");
         };
-        let (pairs, skipped) = checked_pairs(&ds, &setups[i])?;
-        check_shape(runs, setups[i].method_names().len(), pairs.len())
+        let setup = &setups[i];
+        let (pairs, skipped) = checked_pairs(&ds, setup)?;
+        let lag_pairs = lag_pairs(&pairs, setup.lags)?;
+        check_shape(runs, setup.method_names().len(), pairs.len())
+            .and_then(|()| match lagged {
+                Some(l) => check_lag_shape(l, &lag_pairs, setup.variants.len()),
+                None if lag_pairs.is_empty() => Ok(()),
+                None => Err(format!(
+                    "no registration across lags for --lags {}",
+                    setup.lags
+                )),
+            })
             .map_err(anyhow::Error::msg)
             .with_context(|| format!("run {i} of the merged plan"))?;
-        Ok(build(&ds, &pairs, skipped, &setups[i], runs))
+        // The loops are judged here, with every registration in, as a single run judges them.
+        Ok(report(
+            &ds,
+            &pairs,
+            skipped,
+            setup,
+            runs.clone(),
+            lagged.as_ref(),
+        ))
     };
     match &plan.work {
         Work::Run(_) => {

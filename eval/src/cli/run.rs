@@ -9,9 +9,9 @@ use eval::render::markdown::table_md;
 use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::{EstimatesSpec, TILT_NOTE_DEG};
 use eval::run::init::InitChain;
+use eval::run::options::RunOptions;
 use eval::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use eval::run::start_gate::StartGate;
-use eval::shard::RunOptions;
 use eval::shard::Work;
 use icp_core::global::{GlobalParams, RotationMode};
 
@@ -96,19 +96,8 @@ impl RunArgs {
             start_gate: self.start_gate,
             covariance: self.covariance,
             estimates: self.estimates.clone(),
+            lags: self.lags,
         })
-    }
-
-    /// An error when `--lags` asks for loops a sharded run does not make yet.
-    pub(crate) fn lags_unsharded(&self) -> Result<()> {
-        if self.lags != 1 {
-            anyhow::bail!(
-                "--lags {} cannot be sharded yet (--shard, or a Slurm or Kubernetes job that \
-                 shards itself): run it unsharded (--no-shard)",
-                self.lags
-            );
-        }
-        Ok(())
     }
 
     /// The global search's parameters from the options.
@@ -132,11 +121,10 @@ pub(crate) fn run_one(args: RunArgs) -> Result<ExitCode> {
     let ds = load_dataset(&args.data)?;
     let specs = resolve_variants(&args.variants, &ds)?;
     if let Some(shard) = shard_of(&args.shard)? {
-        args.lags_unsharded()?;
         let work = Work::Run(args.run_options()?);
         return run_shard_cmd(&ds, specs, work, shard, &args.out, &args.common);
     }
-    let setup = args.run_options()?.setup(&specs, &ds)?.with_lags(args.lags);
+    let setup = args.run_options()?.setup(&specs, &ds)?;
     note_estimates(&setup);
     let (report, _) = evaluate_and_write(&ds, &setup, &args.out, &args.common)?;
     println!("{}", table_md(&report));

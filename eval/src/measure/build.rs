@@ -189,7 +189,7 @@ pub fn build(
                 setup.covariance,
                 inflation,
                 // Ground truth carries no noise of its own to estimate.
-                noise_ok.map(|n| consistency::ReferenceNoise {
+                noise_ok.map(|n| consistency::MovementNoise {
                     sog_mps: n.sog_mps,
                     dcog_deg: n.dcog_deg,
                 }),
@@ -224,6 +224,7 @@ pub fn build(
             start_gate: setup.start_gate,
             covariance: setup.covariance,
             estimates: setup.estimates.iter().map(|e| e.source.clone()).collect(),
+            lags: setup.lags,
             start_gated: setup
                 .close_start_specs()
                 .unwrap_or_default()

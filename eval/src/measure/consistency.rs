@@ -209,25 +209,21 @@ impl Standardised {
         } else {
             0.0
         };
-        let mut sorted = z.to_vec();
-        sorted.sort_by(f64::total_cmp);
-        let med = crate::measure::stats::quantile_sorted(&sorted, 0.5);
-        let mut dev: Vec<f64> = sorted.iter().map(|v| (v - med).abs()).collect();
-        dev.sort_by(f64::total_cmp);
         Some(Self {
             pairs: z.len(),
             mean,
             sd,
-            mad_sd: 1.4826 * crate::measure::stats::quantile_sorted(&dev, 0.5),
+            mad_sd: crate::measure::stats::robust_sd(z),
             within_2sigma_fraction: z.iter().filter(|v| v.abs() <= 2.0).count() as f64 / n,
         })
     }
 }
 
-/// The reference's own noise in the movement parameters, from its one estimate
-/// (`reference.noise`, made by the `reference_noise` module).
+/// The reference's own noise in the movement parameters (SOG, ΔCOG) that the z-scores'
+/// twins add: the part of the reference's one noise estimate
+/// (`reference_noise::ReferenceNoise`, `reference.noise`) they use.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ReferenceNoise {
+pub struct MovementNoise {
     /// SOG, m/s.
     pub sog_mps: f64,
     /// ΔCOG, degrees.
@@ -254,7 +250,7 @@ pub struct ConsistencySummary {
     /// SOG errors over their standard errors (pairs with a plausible reference).
     #[serde(default)]
     pub sog_z: Option<Standardised>,
-    /// The same with the reference's noise added to `σ` (see [`ReferenceNoise`]).
+    /// The same with the reference's noise added to `σ` (see [`MovementNoise`]).
     #[serde(default)]
     pub sog_z_with_reference_noise: Option<Standardised>,
     /// ΔCOG errors over their standard errors.
@@ -265,7 +261,7 @@ pub struct ConsistencySummary {
     pub dcog_z_with_reference_noise: Option<Standardised>,
     /// The reference's own noise, as estimated.
     #[serde(default)]
-    pub reference_noise: Option<ReferenceNoise>,
+    pub reference_noise: Option<MovementNoise>,
 }
 
 /// Fills `row`'s covariance cells, movement-parameter standard errors and NEES from the
@@ -315,7 +311,7 @@ pub fn summarize(
     rows: &[PairRecord],
     mode: CovarianceMode,
     inflation: f64,
-    reference: Option<ReferenceNoise>,
+    reference: Option<MovementNoise>,
 ) -> Option<ConsistencySummary> {
     if mode == CovarianceMode::Off {
         return None;

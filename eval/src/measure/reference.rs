@@ -218,7 +218,7 @@ fn outliers(x: &[f64], scale_floor: f64) -> Vec<Option<(f64, f64)>> {
         .filter(|d| d.is_finite())
         .collect();
     let mad = icp_core::robust::median_in_place(&mut dev).unwrap_or(0.0);
-    let sigma = (1.4826 * mad).max(scale_floor);
+    let sigma = (crate::measure::stats::MAD_TO_SD * mad).max(scale_floor);
     x.iter()
         .zip(&medians)
         .map(|(v, m)| {

@@ -42,6 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::data::scan_time_s;
 use crate::measure::consistency::nees;
 use crate::measure::record::PairRecord;
+use crate::measure::stats::robust_sd;
 use crate::run::covariance::pose_error;
 
 /// Orders 2 and 3 agree when the larger of their estimates is at most this multiple of the
@@ -324,16 +325,6 @@ fn lag1_correlation(r: &[f64]) -> f64 {
         r.windows(2).map(|w| (w[0] + w[1], w[0] - w[1])).unzip();
     let (p2, m2) = (robust_sd(&plus).powi(2), robust_sd(&minus).powi(2));
     (p2 - m2) / (p2 + m2)
-}
-
-/// `1.4826 · MAD` about the median (NaN when empty).
-fn robust_sd(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    let Some(med) = icp_core::robust::median_in_place(&mut v) else {
-        return f64::NAN;
-    };
-    let mut dev: Vec<f64> = v.iter().map(|x| (x - med).abs()).collect();
-    1.4826 * icp_core::robust::median_in_place(&mut dev).unwrap_or(f64::NAN)
 }
 
 #[cfg(test)]

@@ -280,6 +280,10 @@ pub struct RunConfig {
     /// files' SHA-256 (see [`crate::run::estimates`]).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub estimates: Vec<ExternalSource>,
+    /// The longest lag registered (`--lags`; 1: consecutive pairs only, see
+    /// [`crate::run::lags`]).
+    #[serde(default = "crate::run::options::one_lag")]
+    pub lags: usize,
 }
 
 /// The whole run.

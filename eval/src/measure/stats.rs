@@ -60,6 +60,21 @@ pub fn rms(values: &[f64]) -> f64 {
     (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
 }
 
+/// The factor that makes a median absolute deviation a standard deviation for Gaussian data
+/// (1/Φ⁻¹(3/4)).
+pub const MAD_TO_SD: f64 = 1.4826;
+
+/// `1.4826 · MAD` about the median: the spread of `values` without their tails, the standard
+/// deviation for Gaussian data (NaN when empty).
+pub fn robust_sd(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    let Some(med) = icp_core::robust::median_in_place(&mut v) else {
+        return f64::NAN;
+    };
+    let mut dev: Vec<f64> = v.iter().map(|x| (x - med).abs()).collect();
+    MAD_TO_SD * icp_core::robust::median_in_place(&mut dev).unwrap_or(f64::NAN)
+}
+
 /// Quantile `q` in [0, 1] of ascending `sorted` values, interpolating linearly between order
 /// statistics at position `q (n − 1)` (Hyndman & Fan type 7, numpy's default).
 pub fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
@@ -87,6 +102,15 @@ pub fn median_p95(values: &[f64]) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn robust_sd_by_hand() {
+        // Odd count: median 3, departures 2, 1, 0, 1, 97: MAD 1 (the outlier does not count).
+        assert_eq!(robust_sd(&[1.0, 2.0, 3.0, 4.0, 100.0]), MAD_TO_SD);
+        // Even count: median 2.5, departures 1.5, 0.5, 0.5, 1.5: MAD 1.
+        assert_eq!(robust_sd(&[4.0, 1.0, 3.0, 2.0]), MAD_TO_SD);
+        assert!(robust_sd(&[]).is_nan());
+    }
 
     #[test]
     fn hand_computed_example() {

@@ -16,6 +16,7 @@ use nalgebra::{Isometry2, Matrix2};
 use serde::{Deserialize, Serialize};
 
 use crate::data;
+use crate::error::InitError;
 
 /// One way of choosing a registration's start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -93,29 +94,6 @@ impl fmt::Display for InitMode {
     }
 }
 
-/// Why an initial-guess option cannot be used.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum InitError {
-    /// A mode name that is not registered.
-    #[error(
-        "unknown init mode {got:?}: expected one of {known}, or a comma-separated chain of them"
-    )]
-    Unknown { got: String, known: String },
-    /// An empty option or chain element.
-    #[error("empty init mode in {0:?}")]
-    Empty(String),
-    /// The same mode twice in a chain: the second try would repeat the first.
-    #[error("init mode {0} appears twice in the chain")]
-    Repeated(InitMode),
-    /// The dataset cannot give what a mode needs.
-    #[error("--init {mode} cannot be used on {dataset}: {why}")]
-    Unavailable {
-        mode: InitMode,
-        dataset: String,
-        why: &'static str,
-    },
-}
-
 /// The modes to try in turn: the first one's start, then the next one's while the
 /// registration is flagged. The result kept is the first unflagged one, else the last.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -147,7 +125,7 @@ impl FromStr for InitChain {
                     known: MODES.map(|m| m.1).join(", "),
                 })?;
             if modes.contains(&mode) {
-                return Err(InitError::Repeated(mode));
+                return Err(InitError::Repeated(mode.name()));
             }
             modes.push(mode);
         }
@@ -189,7 +167,7 @@ impl InitChain {
     pub fn check(&self, ds: &Dataset) -> Result<(), InitError> {
         for &mode in &self.0 {
             let unavailable = |why| InitError::Unavailable {
-                mode,
+                mode: mode.name(),
                 dataset: ds.provenance.name.clone(),
                 why,
             };
@@ -321,7 +299,7 @@ mod tests {
         );
         assert_eq!(
             "identity,identity".parse::<InitChain>(),
-            Err(InitError::Repeated(InitMode::Identity))
+            Err(InitError::Repeated("identity"))
         );
         let e = "odometer".parse::<InitChain>().unwrap_err().to_string();
         assert!(

@@ -5,12 +5,13 @@
 
 use datasets::{Dataset, ScanPair};
 use indicatif::ProgressBar;
+use serde::{Deserialize, Serialize};
 
 use crate::error::EvalError;
 use crate::run::runner::{self, Methods, RunPlan, Runs};
 
 /// One registration across a lag.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct LagPair {
     /// The scans registered: `source` = scan k, `reference` = scan k+ℓ.
     pub pair: ScanPair,
@@ -20,8 +21,9 @@ pub struct LagPair {
     pub first: usize,
 }
 
-/// The registrations across lags, by lag then position.
-#[derive(Clone, Debug)]
+/// The registrations across lags, by lag then position (serialized whole into the part files
+/// of a sharded run, see the `shard` module).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct LagRuns {
     /// The pairs, in the order of `runs`.
     pub pairs: Vec<LagPair>,

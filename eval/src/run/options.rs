@@ -1,11 +1,76 @@
-//! What `icp-eval run` does to the built-in variants and to the dataset from its options
-//! (`--matcher`, `--huber-c`, `--seed`, `--sensor`), shared by the command line and the
-//! Python package (`icp_bench.run`), so both run the same chains on the same data.
+//! The options of `icp-eval run` and `compare`, shared by the command line, the Python
+//! package (`icp_bench.run`) and a sharded run's plan, so all three run the same chains on
+//! the same data: the run's own ([`RunOptions`], which make its [`EvalSetup`]), what they do
+//! to the built-in variants (`--matcher`, `--huber-c`, `--seed`) and to the dataset
+//! (`--sensor`).
 
 use datasets::{Dataset, LoadWarning};
+use icp_core::global::GlobalParams;
 use icp_core::sensor::{SensorOverrideError, SensorOverrides};
 use icp_core::variants::VariantSpec;
 use icp_core::{ConfigError, SensorModel};
+use serde::{Deserialize, Serialize};
+
+use crate::error::EvalError;
+use crate::run::covariance::CovarianceMode;
+use crate::run::estimates::EstimatesSpec;
+use crate::run::init::InitChain;
+use crate::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
+use crate::run::start_gate::StartGate;
+
+/// The options of a run (`run` and `compare`) that its setup takes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunOptions {
+    /// Reference time alignment.
+    pub offset: OffsetChoice,
+    /// Reference plausibility checks.
+    pub reference_checks: ReferenceChecks,
+    /// Where registrations start.
+    pub init: InitChain,
+    /// The global search's parameters.
+    pub global: GlobalParams,
+    /// Whether results are checked against the global search.
+    pub global_check: GlobalChecks,
+    /// How registrations started close to the motion gate their correspondences.
+    #[serde(default)]
+    pub start_gate: StartGate,
+    /// Where each registration's covariance comes from.
+    #[serde(default)]
+    pub covariance: CovarianceMode,
+    /// External estimates evaluated after the variants, with their files' SHA-256.
+    #[serde(default)]
+    pub estimates: Vec<EstimatesSpec>,
+    /// Every variant also registers `k → k+ℓ` for `2 ≤ ℓ ≤ lags` (`--lags`; 1: consecutive
+    /// pairs only, see [`crate::run::lags`]).
+    #[serde(default = "one_lag")]
+    pub lags: usize,
+}
+
+/// `lags` of options written before `--lags` existed: consecutive pairs only.
+pub fn one_lag() -> usize {
+    1
+}
+
+impl RunOptions {
+    /// The setup of a run of `variants` on `ds` with these options (the external estimates
+    /// read for the pairs of `ds`, each file checked against its recorded SHA-256).
+    pub fn setup(&self, variants: &[VariantSpec], ds: &Dataset) -> Result<EvalSetup, EvalError> {
+        let (pairs, _) = ds.consecutive_pairs();
+        let estimates = self
+            .estimates
+            .iter()
+            .map(|e| e.load(ds, &pairs))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(EvalSetup::from_specs(variants, self.offset)?
+            .with_reference_checks(self.reference_checks)
+            .with_init(self.init.clone())
+            .with_global(self.global, self.global_check)
+            .with_start_gate(self.start_gate)
+            .with_covariance(self.covariance)
+            .with_estimates(estimates)
+            .with_lags(self.lags))
+    }
+}
 
 /// The options that apply to the built-in variants, where a variant has the parameter.
 #[derive(Clone, Debug, Default, PartialEq)]

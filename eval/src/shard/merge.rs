@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::measure::basin::BasinRow;
+use crate::run::lags::{LagPair, LagRuns};
 use crate::run::runner::Runs;
 use crate::shard::slices;
 use crate::shard::Cut;
@@ -95,7 +96,12 @@ pub struct Merged {
 #[derive(Debug)]
 pub enum MergedRun {
     /// A run's registrations.
-    Runs(Runs),
+    Runs {
+        /// The consecutive pairs'.
+        runs: Runs,
+        /// Those across lags (`--lags` above 1), in the single run's order.
+        lagged: Option<LagRuns>,
+    },
     /// A basin's rows.
     Basin(Vec<BasinRow>),
 }
@@ -233,9 +239,9 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
                 SliceResults::Basin(rows) => match target {
                     None => *target = Some(MergedRun::Basin(rows)),
                     Some(MergedRun::Basin(all)) => all.extend(rows),
-                    Some(MergedRun::Runs(_)) => return Err(bad("basin rows in a run".into())),
+                    Some(MergedRun::Runs { .. }) => return Err(bad("basin rows in a run".into())),
                 },
-                SliceResults::Runs(r) => {
+                SliceResults::Runs { runs: r, lagged } => {
                     let width = match cut {
                         Cut::Pairs => r.per_variant.first().map_or(0, Vec::len),
                         Cut::Variants => r.per_variant.len(),
@@ -248,8 +254,23 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
                         )));
                     }
                     match target {
-                        None => *target = Some(MergedRun::Runs(r)),
-                        Some(MergedRun::Runs(all)) => append(all, r, cut),
+                        None => *target = Some(MergedRun::Runs { runs: r, lagged }),
+                        Some(MergedRun::Runs {
+                            runs: all,
+                            lagged: all_lagged,
+                        }) => {
+                            append(all, r, cut);
+                            match (all_lagged, lagged) {
+                                (Some(all), Some(more)) => append_lagged(all, more, cut),
+                                (None, None) => {}
+                                _ => {
+                                    return Err(bad(
+                                        "registrations across lags in some slices of a run only"
+                                            .into(),
+                                    ))
+                                }
+                            }
+                        }
                         Some(MergedRun::Basin(_)) => {
                             return Err(bad("registrations in a basin".into()))
                         }
@@ -268,9 +289,22 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
                 if basin {
                     MergedRun::Basin(Vec::new())
                 } else {
-                    MergedRun::Runs(empty_runs(plan.methods(i)))
+                    MergedRun::Runs {
+                        runs: empty_runs(plan.methods(i)),
+                        lagged: None,
+                    }
                 }
             })
+        })
+        .map(|r| match r {
+            MergedRun::Runs {
+                runs,
+                lagged: Some(lagged),
+            } => MergedRun::Runs {
+                runs,
+                lagged: Some(in_run_order(lagged)),
+            },
+            other => other,
         })
         .collect();
     Ok(Merged {
@@ -313,6 +347,57 @@ fn append(all: &mut Runs, more: Runs, cut: Cut) {
     // Surface-estimate times of scans at a slice's edge are counted in both slices: a
     // timing, like every field that differs from a single run.
     all.prepare_us.extend(more.prepare_us);
+}
+
+/// Appends the next slice `more` of a run's registrations across lags to `all`, as the run
+/// is cut: more pairs (put in order by [`in_run_order`]) or the next variants.
+fn append_lagged(all: &mut LagRuns, more: LagRuns, cut: Cut) {
+    match cut {
+        Cut::Pairs => {
+            all.pairs.extend(more.pairs);
+            append(&mut all.runs, more.runs, cut);
+        }
+        Cut::Variants => append(&mut all.runs, more.runs, cut),
+    }
+}
+
+/// `lagged`'s pairs and their registrations in the single run's order, by lag then first
+/// consecutive pair (the slices of a pair cut hold each lag's pairs in turn).
+fn in_run_order(lagged: LagRuns) -> LagRuns {
+    let mut order: Vec<usize> = (0..lagged.pairs.len()).collect();
+    order.sort_by_key(|&i| (lagged.pairs[i].lag, lagged.pairs[i].first));
+    let pick = |v: &[LagPair]| order.iter().map(|&i| v[i]).collect::<Vec<_>>();
+    let mut runs = lagged.runs;
+    for variant in &mut runs.per_variant {
+        if variant.len() == order.len() {
+            *variant = order.iter().map(|&i| variant[i].clone()).collect();
+        }
+    }
+    if runs.searches.len() == order.len() {
+        runs.searches = order.iter().map(|&i| runs.searches[i].clone()).collect();
+    }
+    LagRuns {
+        pairs: pick(&lagged.pairs),
+        runs,
+    }
+}
+
+/// `Err` saying what is wrong unless `lagged` holds the registrations of `variants` variants
+/// across exactly the lag pairs `expected` (what a single run registers), with one global
+/// search per lag pair or none.
+pub fn check_lag_shape(
+    lagged: &LagRuns,
+    expected: &[LagPair],
+    variants: usize,
+) -> Result<(), String> {
+    if lagged.pairs != expected {
+        return Err(format!(
+            "{} pairs across lags where the run has {}, or not the same",
+            lagged.pairs.len(),
+            expected.len()
+        ));
+    }
+    check_shape(&lagged.runs, variants, expected.len()).map_err(|e| format!("across lags: {e}"))
 }
 
 /// `Err` saying what is wrong unless `runs` holds `variants` variants of `pairs` pairs each

@@ -21,6 +21,12 @@
 //! the plan alone (the same unit always lands in the same part for the same plan and `n`;
 //! with more shards than units some parts are empty, and still written).
 //!
+//! **Loops across lags** (`--lags L`): a registration `k → k+ℓ` belongs to the unit of its
+//! first consecutive pair `k → k+1` (with a variant cut, to its variant), so every shard
+//! registers its own and the merge, which alone holds every registration, puts them in the
+//! single run's order and judges the loops (`measure::cycles`): a loop that crosses a
+//! shard's edge is judged as the single run judges it.
+//!
 //! **The plan's fingerprint** is the SHA-256 of the plan's canonical JSON: the dataset's
 //! identity (name, description, file names and SHA-256 sums, scan count, time step, a hash
 //! of the loaded scans and reference), the variant specs, the command's options, the runs'
@@ -48,16 +54,12 @@ use crate::measure::basin::BasinOptions;
 use crate::measure::basin::BasinRow;
 use crate::measure::compare::CompareOptions;
 use crate::measure::sweep::SweepParam;
-use crate::run::covariance::CovarianceMode;
-use crate::run::estimates::EstimatesSpec;
-use crate::run::init::InitChain;
+use crate::run::lags::{self, LagRuns};
+use crate::run::options::RunOptions;
 use crate::run::runner::Runs;
 use crate::run::setup::EvalSetup;
 use crate::run::setup::GlobalChecks;
 use crate::run::setup::OffsetChoice;
-use crate::run::setup::ReferenceChecks;
-use crate::run::start_gate::StartGate;
-use icp_core::global::GlobalParams;
 
 /// Slurm's array task id.
 pub const SLURM_ARRAY_TASK_ID: &str = "SLURM_ARRAY_TASK_ID";
@@ -423,50 +425,6 @@ impl DatasetIdentity {
     }
 }
 
-/// The options of a run (`run` and `compare`) that the setup takes.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RunOptions {
-    /// Reference time alignment.
-    pub offset: OffsetChoice,
-    /// Reference plausibility checks.
-    pub reference_checks: ReferenceChecks,
-    /// Where registrations start.
-    pub init: InitChain,
-    /// The global search's parameters.
-    pub global: GlobalParams,
-    /// Whether results are checked against the global search.
-    pub global_check: GlobalChecks,
-    /// How registrations started close to the motion gate their correspondences.
-    #[serde(default)]
-    pub start_gate: StartGate,
-    /// Where each registration's covariance comes from.
-    #[serde(default)]
-    pub covariance: CovarianceMode,
-    /// External estimates evaluated after the variants, with their files' SHA-256.
-    #[serde(default)]
-    pub estimates: Vec<EstimatesSpec>,
-}
-
-impl RunOptions {
-    /// The setup of a run of `variants` on `ds` with these options (the external estimates
-    /// read for the pairs of `ds`, each file checked against its recorded SHA-256).
-    pub fn setup(&self, variants: &[VariantSpec], ds: &Dataset) -> Result<EvalSetup, EvalError> {
-        let (pairs, _) = ds.consecutive_pairs();
-        let estimates = self
-            .estimates
-            .iter()
-            .map(|e| e.load(ds, &pairs))
-            .collect::<Result<Vec<_>, _>>()?;
-        Ok(EvalSetup::from_specs(variants, self.offset)?
-            .with_reference_checks(self.reference_checks)
-            .with_init(self.init.clone())
-            .with_global(self.global, self.global_check)
-            .with_start_gate(self.start_gate)
-            .with_covariance(self.covariance)
-            .with_estimates(estimates))
-    }
-}
-
 /// A `compare --sweep`: the parameter and its values.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SweepPlan {
@@ -537,6 +495,8 @@ impl Plan {
             Work::Run(run) | Work::Compare { run, .. } => {
                 let setups = plan.setups(ds)?;
                 let (pairs, _) = crate::run::setup::checked_pairs(ds, &setups[0])?;
+                // `--lags` beyond the run is refused before any shard runs.
+                lags::lag_pairs(&pairs, run.lags)?;
                 let sequential = run.init.sequential();
                 setups
                     .iter()
@@ -608,7 +568,15 @@ pub enum SliceResults {
     /// The registrations of the slice's pairs (all variants) or variants (all pairs): the
     /// runner's raw results; for a variant slice, the pairs' searches only in the slice that
     /// starts at the run's first variant.
-    Runs(Runs),
+    Runs {
+        /// The consecutive pairs' registrations.
+        runs: Runs,
+        /// With `--lags` above 1, the registrations across lags the slice owns: for a pair
+        /// slice, those whose first consecutive pair is in the slice (all variants); for a
+        /// variant slice, every lag pair of its variants. Their loops are judged by the
+        /// merge, once every registration is in.
+        lagged: Option<LagRuns>,
+    },
     /// The basin rows of the slice's pairs, in order.
     Basin(Vec<BasinRow>),
 }
@@ -631,7 +599,7 @@ pub struct Part {
 }
 
 /// The `format` of a part file.
-pub const PART_FORMAT: &str = "icp-eval part 1";
+pub const PART_FORMAT: &str = "icp-eval part 2";
 
 impl Part {
     /// The part's bytes (CBOR: every number, NaN and infinities included, read back exactly).
@@ -682,35 +650,50 @@ pub fn run_shard(
                     global: &setup.global,
                     check: setup.global_check == GlobalChecks::On,
                 };
-                let runs = match plan.runs[slice.run].cut {
+                let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
+                let (runs, lagged) = match plan.runs[slice.run].cut {
                     Cut::Pairs => {
-                        progress.inc_length((methods.len() * slice.units.len()) as u64);
-                        crate::run::runner::run_from(
+                        // A pair across lags belongs to the slice of its first consecutive pair.
+                        let mine: Vec<_> = lag_pairs
+                            .into_iter()
+                            .filter(|p| slice.units.contains(&p.first))
+                            .collect();
+                        progress.inc_length(
+                            (methods.len() * slice.units.len() + setup.variants.len() * mine.len())
+                                as u64,
+                        );
+                        let runs = crate::run::runner::run_from(
                             ds,
                             &pairs[slice.units.clone()],
                             slice.units.start,
                             methods,
                             &run_plan,
                             progress,
-                        )
+                        );
+                        let lagged = lags::run(ds, mine, setup.lags, methods, &run_plan, progress);
+                        (runs, lagged)
                     }
                     Cut::Variants => {
-                        progress.inc_length((pairs.len() * slice.units.len()) as u64);
                         // Each method with its own close-start twin.
-                        let mut runs = crate::run::runner::run_all(
-                            ds,
-                            &pairs,
-                            methods.slice(slice.units.clone()),
-                            &run_plan,
-                            progress,
+                        let mine = methods.slice(slice.units.clone());
+                        progress.inc_length(
+                            (pairs.len() * mine.len() + lag_pairs.len() * mine.registrars.len())
+                                as u64,
                         );
+                        let mut runs =
+                            crate::run::runner::run_all(ds, &pairs, mine, &run_plan, progress);
+                        let mut lagged =
+                            lags::run(ds, lag_pairs, setup.lags, mine, &run_plan, progress);
                         if slice.units.start != 0 {
                             runs.searches.clear();
+                            if let Some(l) = &mut lagged {
+                                l.runs.searches.clear();
+                            }
                         }
-                        runs
+                        (runs, lagged)
                     }
                 };
-                SliceResults::Runs(runs)
+                SliceResults::Runs { runs, lagged }
             }
         };
         out.push((slice, results));

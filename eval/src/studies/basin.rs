@@ -41,6 +41,26 @@ pub fn run(
     Ok(report(ds, &names, options, chosen.len(), rows))
 }
 
+/// `Err` unless `lags` is 1: the protocol makes no loop across lags (`--lags`). It judges
+/// every start against the true motion (it needs a rigid reference), so a truth-free check
+/// adds nothing to what it measures; and a loop chains the registrations of neighbouring
+/// pairs, each from its own start drawn independently per (pair, perturbation) and perhaps
+/// skipped by `pair_stride`, so whether a loop closes would be a property of several starts,
+/// not of one. How well loops catch wrong registrations is measured by `run --lags` against a
+/// rigid reference (the flags' recall and precision).
+pub fn check_lags(lags: usize) -> Result<(), EvalError> {
+    if lags == 1 {
+        return Ok(());
+    }
+    Err(EvalError::Lags {
+        lags,
+        why: "the convergence basin makes no loops: each start is judged against the true \
+              motion, and a loop would chain the independent starts of neighbouring pairs; \
+              measure the loops with `run --lags` on a rigid reference"
+            .to_owned(),
+    })
+}
+
 /// The pairs the protocol runs: every `options.pair_stride`-th consecutive pair of `ds`, with
 /// its index among them all.
 pub fn chosen_pairs(ds: &Dataset, options: &BasinOptions) -> Vec<(usize, ScanPair)> {

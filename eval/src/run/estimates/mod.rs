@@ -30,6 +30,8 @@ use nalgebra::Isometry2;
 
 use datasets::ScanPair;
 
+use crate::error::EstimatesError;
+
 mod pair_csv;
 mod tum;
 
@@ -47,55 +49,6 @@ pub const PAIR_CSV_HEADER: &str = "source,reference,tx_m,ty_m,theta_deg";
 /// planar) is counted in [`ExternalSource::tilted_poses`], degrees: far above the tilt a
 /// planar estimator's rounding leaves, below any real tilt of a 3D estimator gone wrong.
 pub const TILT_NOTE_DEG: f64 = 1.0;
-
-/// Why an estimates file cannot be used.
-#[derive(Debug, thiserror::Error)]
-pub enum EstimatesError {
-    /// The file could not be read.
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
-    /// A line or field is not what the format says.
-    #[error("{path}, line {line}, {field}: {why}")]
-    Bad {
-        path: PathBuf,
-        line: usize,
-        field: &'static str,
-        why: String,
-    },
-    /// The file holds no estimate for any pair of the run.
-    #[error("{path}: no estimates for the pairs of this run (TUM poses outside the run's time span are left unused)")]
-    Empty { path: PathBuf },
-    /// A TUM pose is near no scan of the run.
-    #[error("{path}, line {line}: the pose at t = {t_s} s is within {tol_s} s of no scan (nearest: {nearest_s} s); is the file of this run?")]
-    NoScanAt {
-        path: PathBuf,
-        line: usize,
-        t_s: f64,
-        tol_s: f64,
-        nearest_s: f64,
-    },
-    /// Two estimates for the same scan or pair.
-    #[error("{path}, line {line}: a second estimate for {what}")]
-    Duplicate {
-        path: PathBuf,
-        line: usize,
-        what: String,
-    },
-    /// The argument is not `NAME=FILE`.
-    #[error("--estimates {0:?}: expected NAME=FILE")]
-    Spec(String),
-    /// The file is not the one the run was planned with (a shard or a merge reads another).
-    #[error("{path}: SHA-256 {got}, but the run was planned with {expected}: the file changed")]
-    Changed {
-        path: PathBuf,
-        expected: String,
-        got: String,
-    },
-}
 
 /// One `t_ref_src` (or pose) per slot (pair or scan), `None` where the file has none.
 pub type Slots = Vec<Option<Isometry2<f64>>>;

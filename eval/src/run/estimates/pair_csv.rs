@@ -6,7 +6,8 @@ use std::path::Path;
 use datasets::ScanPair;
 use nalgebra::{Isometry2, Vector2};
 
-use super::{content_lines, number, EstimatesError, Read, PAIR_CSV_HEADER};
+use super::{content_lines, number, Read, PAIR_CSV_HEADER};
+use crate::error::EstimatesError;
 
 /// The per-pair motions of a CSV with the header [`PAIR_CSV_HEADER`], one slot per pair of
 /// `pairs`; a row of a pair the run does not register is counted and left unused, a row

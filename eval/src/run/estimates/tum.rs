@@ -4,7 +4,8 @@ use std::path::Path;
 
 use nalgebra::{Isometry2, UnitComplex, Vector2};
 
-use super::{content_lines, number, EstimatesError, Read, MATCH_TOLERANCE_S, TILT_NOTE_DEG};
+use super::{content_lines, number, Read, MATCH_TOLERANCE_S, TILT_NOTE_DEG};
+use crate::error::EstimatesError;
 
 /// A unit quaternion's norm may be off by this much (rounded text) before it is refused.
 const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
