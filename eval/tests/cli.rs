@@ -1,18 +1,12 @@
 //! Runs the `icp-eval` binary on a small synthetic dataset and checks what it writes.
 
 mod common;
+use common::icp_eval;
 
 use std::path::Path;
 
 use eval::measure::record::PairRecord;
 use eval::measure::report::RunReport;
-
-fn icp_eval(args: &[&str]) -> std::process::Output {
-    common::icp_eval_command()
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn run_small(out: &Path, threads: &str, plots: bool) {
     let mut args = vec![

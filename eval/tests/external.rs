@@ -3,16 +3,10 @@
 //! `--estimates` options are in the bad-input matrix.
 
 mod common;
+use common::icp_eval;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-
-fn icp_eval(args: &[&str]) -> Output {
-    common::icp_eval_command()
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn ok(o: Output) -> Output {
     assert!(

@@ -2,16 +2,10 @@
 //! incomparable or broken input is refused.
 
 mod common;
+use common::icp_eval;
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-
-fn icp_eval(args: &[&str]) -> Output {
-    common::icp_eval_command()
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn tolerance() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../reports/baseline/tolerance.json")

@@ -2,13 +2,10 @@
 //! refuses a directory holding files it did not write, unless forced.
 
 mod common;
+use common::icp_eval;
 
 use eval::error::EvalError;
 use eval::render::outdir::OutputDir;
-
-fn icp_eval(args: &[&str]) -> std::process::Output {
-    common::icp_eval_command().args(args).output().unwrap()
-}
 
 #[test]
 fn a_new_run_removes_the_files_of_the_last_and_nothing_else() {

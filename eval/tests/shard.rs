@@ -4,6 +4,7 @@
 //! part.
 
 mod common;
+use common::icp_eval;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -21,10 +22,6 @@ fn ok(o: Output) -> Output {
         String::from_utf8_lossy(&o.stderr)
     );
     o
-}
-
-fn icp_eval(args: &[String]) -> Output {
-    common::icp_eval_command().args(args).output().unwrap()
 }
 
 fn args(base: &[&str], more: &[&str]) -> Vec<String> {

@@ -32,6 +32,14 @@ pub fn icp_eval_command() -> Command {
     unsharded(Command::new(env!("CARGO_BIN_EXE_icp-eval")))
 }
 
+/// Runs `icp-eval ARGS` ([`icp_eval_command`]) and returns what it did, whatever it did.
+pub fn icp_eval<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> std::process::Output {
+    icp_eval_command()
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
 /// A fresh, empty directory under the target dir.
 pub fn scratch_dir(name: &str) -> PathBuf {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
