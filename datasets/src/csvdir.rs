@@ -486,6 +486,8 @@ pub fn parse<R: Read>(
             .unwrap_or(BearingSense::CounterClockwise),
         dt_s,
         sensor,
+        // dataset.json does not state it.
+        sweep_s: None,
         bearing_sense: meta.bearing_sense.unwrap_or(BearingSense::CounterClockwise),
         warnings: assumed
             .into_iter()
