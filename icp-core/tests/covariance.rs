@@ -155,15 +155,8 @@ fn a_corridor_shows_its_axis_as_the_dominant_or_unbounded_variance() {
         let factor = if name.contains("GICP") { 1.0 } else { 100.0 };
         // Noise-free: the Hessian is singular along x, the covariance explicitly unbounded.
         let pts = corridor(0.0, &mut rng);
-        let moved: Vec<[f64; 2]> = pts
-            .iter()
-            .map(|p| {
-                let q = truth * nalgebra::Point2::new(p[0], p[1]);
-                [q.x, q.y]
-            })
-            .collect();
         let s = Scan::from_cartesian(&pts).unwrap();
-        let r = Scan::from_cartesian(&moved).unwrap();
+        let r = Scan::from_cartesian(&moved_by(&truth, &pts)).unwrap();
         let out = reg.register(&s, &r, Isometry2::identity()).unwrap();
         let exact = out.covariance.unwrap();
         along_dominates(name, &exact, factor);
@@ -182,6 +175,16 @@ fn a_corridor_shows_its_axis_as_the_dominant_or_unbounded_variance() {
         let out = reg.register(&s, &r, Isometry2::identity()).unwrap();
         along_dominates(name, &out.covariance.unwrap(), factor);
     }
+}
+
+/// `pts` moved by `t`.
+fn moved_by(t: &Isometry2<f64>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    pts.iter()
+        .map(|p| {
+            let q = t * nalgebra::Point2::new(p[0], p[1]);
+            [q.x, q.y]
+        })
+        .collect()
 }
 
 /// Translation along the corridor (x) is the least known: unbounded along it, or a finite
@@ -217,16 +220,9 @@ fn the_jackknife_is_computed_only_when_asked_for_and_changes_nothing_else() {
     let mut rng = ChaCha8Rng::seed_from_u64(7);
     let truth = Isometry2::new(Vector2::new(0.3, -0.1), 0.02);
     let pts = corridor(0.01, &mut rng);
-    let moved: Vec<[f64; 2]> = pts
-        .iter()
-        .map(|p| {
-            let q = truth * nalgebra::Point2::new(p[0], p[1]);
-            [q.x, q.y]
-        })
-        .collect();
     let (s, r) = (
         Scan::from_cartesian(&pts).unwrap(),
-        Scan::from_cartesian(&moved).unwrap(),
+        Scan::from_cartesian(&moved_by(&truth, &pts)).unwrap(),
     );
     for name in ["HD_PL_ICP", "HD_GICP"] {
         let mut reg = builtin(name).unwrap().build().unwrap();
