@@ -254,6 +254,8 @@ pub fn parse<R: Read>(
             odometry: Some(odometry),
             scanner_offset: Some(Pose2::IDENTITY),
             reference_heading_sense: BearingSense::CounterClockwise,
+            // A FLASER line does not say how long its sweep took.
+            sweep_s: None,
             dt_s,
             sensor: options.sensor,
             bearing_sense: BearingSense::CounterClockwise,

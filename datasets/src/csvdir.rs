@@ -62,6 +62,10 @@ pub struct DatasetMeta {
     /// (default: unknown).
     #[serde(default)]
     pub scanner_offset: Option<Pose2>,
+    /// Time from a scan's first return to its last, s (default: unknown; see
+    /// [`Dataset::sweep_s`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep_s: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -460,6 +464,12 @@ pub fn parse<R: Read>(
             });
         }
     }
+    if let Some(sweep_s) = meta.sweep_s.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+        return Err(DatasetError::BadValue {
+            path: META_FILE.into(),
+            what: format!("sweep_s {sweep_s}: not a finite, non-negative number of seconds"),
+        });
+    }
     let sensor = meta.sensor.unwrap_or_default();
     sensor.validate().map_err(|e| DatasetError::BadValue {
         path: META_FILE.into(),
@@ -486,6 +496,7 @@ pub fn parse<R: Read>(
             .unwrap_or(BearingSense::CounterClockwise),
         dt_s,
         sensor,
+        sweep_s: meta.sweep_s,
         bearing_sense: meta.bearing_sense.unwrap_or(BearingSense::CounterClockwise),
         warnings: assumed
             .into_iter()
@@ -575,6 +586,7 @@ pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
         sensor: Some(ds.sensor),
         reference_kind: ds.reference_kind,
         scanner_offset: ds.scanner_offset,
+        sweep_s: ds.sweep_s,
     };
     let json = serde_json::to_string_pretty(&meta).map_err(|e| DatasetError::BadValue {
         path: dir.join(META_FILE),

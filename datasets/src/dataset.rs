@@ -354,6 +354,11 @@ pub struct Dataset {
     pub reference_heading_sense: BearingSense,
     /// Nominal time between consecutive scans, seconds (used where scans carry no timestamps).
     pub dt_s: f64,
+    /// Time the scanner takes from a scan's first return to its last, seconds, where the
+    /// source states it (0: every return of a scan at one instant); `None` when unknown. A
+    /// moving scanner's returns are each taken from where it is at their time, in bearing
+    /// order: consumers use it to account for that motion within the scan.
+    pub sweep_s: Option<f64>,
     /// The sensor's error model.
     pub sensor: SensorModel,
     /// Sense in which the scanner's bearings grow, seen from above.

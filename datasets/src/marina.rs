@@ -250,6 +250,8 @@ fn assemble(
         scanner_offset: None,
         reference_heading_sense: REFERENCE_HEADING_SENSE,
         dt_s: options.dt_s,
+        // The files do not say how fast the Sweep turned.
+        sweep_s: None,
         sensor: options.sensor,
         bearing_sense: BEARING_SENSE,
         warnings: Vec::new(),

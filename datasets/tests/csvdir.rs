@@ -317,6 +317,20 @@ fn reference_kind_defaults_and_refusals() {
             .to_string(),
         "dataset.json: reference_kind is \"odometry\" but there is no poses.csv"
     );
+    for (sweep_s, ok) in [(0.2, true), (0.0, true), (-0.1, false), (f64::NAN, false)] {
+        let meta = DatasetMeta {
+            sweep_s: Some(sweep_s),
+            ..DatasetMeta::default()
+        };
+        match parse_with(GOOD, None, None, &meta) {
+            Ok(ds) => assert!(ok && ds.sweep_s == Some(sweep_s), "{sweep_s}"),
+            Err(e) => assert!(
+                !ok && e.to_string().starts_with("dataset.json: sweep_s"),
+                "{sweep_s}: {e}"
+            ),
+        }
+    }
+    assert_eq!(parse(GOOD, None).unwrap().sweep_s, None);
     let nan_offset = DatasetMeta {
         scanner_offset: Some(Pose2 {
             x_m: f64::NAN,

@@ -114,12 +114,26 @@ fn an_unbounded_covariance_gives_empty_cells_and_a_flag() {
         jackknife_covariance: None,
     };
     let truth = Some(Isometry2::identity());
-    fill(&mut row, Some(&reg), truth, CovarianceMode::ClosedForm, 1.0);
+    fill(
+        &mut row,
+        Some(&reg),
+        truth,
+        CovarianceMode::ClosedForm,
+        1.0,
+        None,
+    );
     assert_eq!(row.cov_status, "unbounded");
     assert!(covariance_cells(&row).iter().all(Option::is_none));
     // A bounded one fills every cell; the NEES of e = (0.2, 0, 0) under 0.01·I is 4.
     reg.covariance = Some(Covariance::Bounded(nalgebra::Matrix3::identity() * 0.01));
-    fill(&mut row, Some(&reg), truth, CovarianceMode::ClosedForm, 1.0);
+    fill(
+        &mut row,
+        Some(&reg),
+        truth,
+        CovarianceMode::ClosedForm,
+        1.0,
+        None,
+    );
     assert_eq!(row.cov_status, "bounded");
     assert!((row.nees.unwrap() - 4.0).abs() < 1e-12);
     assert!((row.sog_sigma_mps.unwrap() - 0.1 / 0.2).abs() < 1e-12);

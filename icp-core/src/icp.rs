@@ -35,6 +35,9 @@ pub struct Icp {
     pub(crate) robust: Box<dyn RobustKernel>,
     pub(crate) minimizer: Box<dyn Minimizer>,
     pub(crate) termination: Termination,
+    /// Whether a registration also computes the grouped jackknife of its covariance (see
+    /// [`Registrar::set_jackknife`]).
+    pub(crate) jackknife: bool,
 }
 
 impl Icp {
@@ -136,6 +139,10 @@ impl Registrar for Icp {
 
     fn surface_params(&self) -> SurfaceParams {
         self.surfaces
+    }
+
+    fn set_jackknife(&mut self, on: bool) {
+        self.jackknife = on;
     }
 
     fn register_prepared(
@@ -321,7 +328,8 @@ impl Registrar for Icp {
             let sums = self.metric.sandwich(&set, weights, &self.sensor);
             (
                 sums.map(|s| s.covariance(&t_ref_src)),
-                sums.map(|s| s.jackknife_covariance(&t_ref_src)),
+                sums.filter(|_| self.jackknife)
+                    .map(|s| s.jackknife_covariance(&t_ref_src)),
             )
         };
         Ok(Registration {

@@ -43,7 +43,8 @@ pub struct Registration {
     pub covariance: Option<Covariance>,
     /// The grouped jackknife of the same final pairs over angular sectors (see
     /// [`crate::covariance::Sandwich::jackknife_covariance`]): the covariance the residuals
-    /// show, whatever the sensor model says; `None` where `covariance` is.
+    /// show, whatever the sensor model says; `None` where `covariance` is, and when the method
+    /// was told not to compute it ([`Registrar::set_jackknife`]).
     #[serde(default)]
     pub jackknife_covariance: Option<Covariance>,
 }
@@ -112,6 +113,12 @@ pub trait Registrar: Send + Sync {
 
     /// How the surface estimates this method takes are made.
     fn surface_params(&self) -> SurfaceParams;
+
+    /// Whether its registrations also compute the grouped jackknife of their covariance
+    /// ([`Registration::jackknife_covariance`]; on unless turned off): a caller that uses the
+    /// closed form alone, or no covariance, turns it off. Changes nothing else of a result. A
+    /// method without a jackknife ignores it.
+    fn set_jackknife(&mut self, _on: bool) {}
 
     /// Registers `source` (scan k) onto `reference` (scan k+1), starting from `init`, in the
     /// buffers of `workspace`.

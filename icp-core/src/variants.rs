@@ -78,6 +78,7 @@ impl VariantSpec {
             robust: ROBUST_KERNELS.build(&self.robust, &ctx)?,
             minimizer,
             termination: self.termination,
+            jackknife: true,
         })
     }
 

@@ -155,15 +155,8 @@ fn a_corridor_shows_its_axis_as_the_dominant_or_unbounded_variance() {
         let factor = if name.contains("GICP") { 1.0 } else { 100.0 };
         // Noise-free: the Hessian is singular along x, the covariance explicitly unbounded.
         let pts = corridor(0.0, &mut rng);
-        let moved: Vec<[f64; 2]> = pts
-            .iter()
-            .map(|p| {
-                let q = truth * nalgebra::Point2::new(p[0], p[1]);
-                [q.x, q.y]
-            })
-            .collect();
         let s = Scan::from_cartesian(&pts).unwrap();
-        let r = Scan::from_cartesian(&moved).unwrap();
+        let r = Scan::from_cartesian(&moved_by(&truth, &pts)).unwrap();
         let out = reg.register(&s, &r, Isometry2::identity()).unwrap();
         let exact = out.covariance.unwrap();
         along_dominates(name, &exact, factor);
@@ -182,6 +175,16 @@ fn a_corridor_shows_its_axis_as_the_dominant_or_unbounded_variance() {
         let out = reg.register(&s, &r, Isometry2::identity()).unwrap();
         along_dominates(name, &out.covariance.unwrap(), factor);
     }
+}
+
+/// `pts` moved by `t`.
+fn moved_by(t: &Isometry2<f64>, pts: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    pts.iter()
+        .map(|p| {
+            let q = t * nalgebra::Point2::new(p[0], p[1]);
+            [q.x, q.y]
+        })
+        .collect()
 }
 
 /// Translation along the corridor (x) is the least known: unbounded along it, or a finite
@@ -208,5 +211,28 @@ fn point_to_point_has_no_closed_form() {
         let reg = builtin(name).unwrap().build().unwrap();
         let out = reg.register(&s, &s, Isometry2::identity()).unwrap();
         assert_eq!(out.covariance, None, "{name}");
+    }
+}
+
+/// `set_jackknife(false)` drops the jackknife and changes nothing else of a registration.
+#[test]
+fn the_jackknife_is_computed_only_when_asked_for_and_changes_nothing_else() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let truth = Isometry2::new(Vector2::new(0.3, -0.1), 0.02);
+    let pts = corridor(0.01, &mut rng);
+    let (s, r) = (
+        Scan::from_cartesian(&pts).unwrap(),
+        Scan::from_cartesian(&moved_by(&truth, &pts)).unwrap(),
+    );
+    for name in ["HD_PL_ICP", "HD_GICP"] {
+        let mut reg = builtin(name).unwrap().build().unwrap();
+        let with = reg.register(&s, &r, Isometry2::identity()).unwrap();
+        assert!(with.jackknife_covariance.is_some(), "{name}: on by default");
+        reg.set_jackknife(false);
+        let without = reg.register(&s, &r, Isometry2::identity()).unwrap();
+        assert_eq!(without.jackknife_covariance, None, "{name}");
+        let mut expected = with;
+        expected.jackknife_covariance = None;
+        assert_eq!(without, expected, "{name}");
     }
 }

@@ -512,6 +512,8 @@ pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Datas
         reference_heading_sense: BearingSense::CounterClockwise,
         dt_s,
         sensor: SensorModel::default(),
+        // LaserScan.scan_time is not decoded yet.
+        sweep_s: None,
         bearing_sense: BearingSense::CounterClockwise,
         warnings,
     }

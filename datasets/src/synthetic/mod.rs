@@ -404,6 +404,12 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         scanner_offset: Some(Pose2::IDENTITY),
         reference_heading_sense: BearingSense::Clockwise,
         dt_s: scenario.dt_s,
+        // Without distortion every beam is cast from the revolution's start pose.
+        sweep_s: Some(if sc.motion_distortion {
+            sc.rotation_period_s()
+        } else {
+            0.0
+        }),
         sensor: sc.sensor,
         bearing_sense: BearingSense::CounterClockwise,
         warnings: Vec::new(),

@@ -19,6 +19,7 @@ use crate::measure::report::*;
 use crate::measure::stats::{median_p95, Stats};
 use crate::measure::trajectory;
 use crate::run::covariance;
+use crate::run::motion;
 use crate::run::runner::{PairRun, Runs};
 use crate::run::setup::{EvalSetup, OffsetChoice, ReferenceChecks};
 use crate::run::status::StatusKind;
@@ -136,6 +137,9 @@ pub fn build(
             .variants
             .get(vi)
             .map_or(1.0, |v| covariance::closed_form_inflation(&v.spec().metric));
+        // The extended modes' term for the scanner's motion within a sweep.
+        let sweep_s = ds.sweep_s.filter(|_| setup.covariance.is_extended());
+        let motion_terms = motion::motion_terms(sweep_s, pairs, &dts, &runs[vi]);
         for (i, (pair, run)) in pairs.iter().zip(&runs[vi]).enumerate() {
             rows.push(record(
                 name,
@@ -156,6 +160,7 @@ pub fn build(
                 refs[i].and_then(|r| r.t_ref_src),
                 setup.covariance,
                 inflation,
+                motion_terms[i].as_ref(),
             );
             if let (Some(step), Some(truth)) = (&reference_step, refs[i].and_then(|r| r.t_ref_src))
             {

@@ -266,14 +266,16 @@ pub struct ConsistencySummary {
 
 /// Fills `row`'s covariance cells, movement-parameter standard errors and NEES from the
 /// registration `reg` (its `covariance`, as [`crate::run::extended::of_registration`] gives it for `mode`) and the true `t_ref_src`
-/// `truth`, where known. Nothing with [`CovarianceMode::Off`]; an unbounded covariance leaves
-/// the cells empty and says `unbounded` (never a NaN).
+/// `truth`, where known, plus `motion` (the extended modes' term for the motion within a
+/// sweep, [`crate::run::motion`]) when given. Nothing with [`CovarianceMode::Off`]; an
+/// unbounded covariance leaves the cells empty and says `unbounded` (never a NaN).
 pub fn fill(
     row: &mut PairRecord,
     reg: Option<&Registration>,
     truth: Option<Isometry2<f64>>,
     mode: CovarianceMode,
     inflation: f64,
+    motion: Option<&Matrix3<f64>>,
 ) {
     if mode == CovarianceMode::Off {
         return;
@@ -288,7 +290,7 @@ pub fn fill(
             row.cov_status = "unbounded".to_owned();
             return;
         }
-        Covariance::Bounded(c) => c,
+        Covariance::Bounded(c) => motion.map_or(c, |m| c + m),
     };
     row.cov_status = "bounded".to_owned();
     row.cov_xx_m2 = Some(c[(0, 0)]);

@@ -68,6 +68,13 @@ impl CovarianceMode {
             .expect("every mode is registered")
     }
 
+    /// Whether it is built on the extended covariance: it takes each registration's grouped
+    /// jackknife ([`icp_core::Registration::jackknife_covariance`]) and the motion term of
+    /// the `motion` module.
+    pub fn is_extended(self) -> bool {
+        matches!(self, CovarianceMode::Extended | CovarianceMode::Restarts)
+    }
+
     /// `--covariance`'s help, generated from [`MODES`].
     pub fn help() -> String {
         format!(

@@ -1,15 +1,18 @@
 //! Run: who registers what, from where. A [`setup::EvalSetup`] says which methods run and how;
 //! the [`runner`] registers every method on every pair from the starts of [`init`] (gated by
-//! [`start_gate`]), checks each result ([`status`]), and [`sampled`] and [`estimates`] add
-//! sampled covariances and estimates made elsewhere.
+//! [`start_gate`]), checks each result ([`status`]), and [`sampled`], [`restarts`] (both through
+//! [`replace`]) and [`estimates`] add covariances made after the run and estimates made
+//! elsewhere.
 
 pub mod covariance;
 pub mod estimates;
 pub mod extended;
 pub mod init;
 pub mod lags;
+pub mod motion;
 pub mod options;
 pub mod pair_search;
+pub mod replace;
 pub mod restarts;
 pub mod runner;
 pub mod sampled;

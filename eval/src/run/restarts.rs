@@ -19,10 +19,10 @@
 use datasets::{Dataset, ScanPair};
 use icp_core::{Covariance, Prepared, Registrar, Surfaces, Workspace};
 use nalgebra::{Isometry2, Matrix3, Vector2};
-use rayon::prelude::*;
 
 use crate::run::covariance::{closed_form_inflation, pose_error};
 use crate::run::extended::extended;
+use crate::run::replace;
 use crate::run::runner::Runs;
 
 /// Restarts per pair.
@@ -77,37 +77,30 @@ pub fn replace_covariances(
     registrars: &[Box<dyn Registrar>],
     runs: &mut Runs,
 ) {
-    for (reg, variant_runs) in registrars.iter().zip(runs.per_variant.iter_mut()) {
-        let params = reg.surface_params();
-        let inflation = closed_form_inflation(&reg.spec().metric);
-        let estimates: Vec<Option<Covariance>> = variant_runs
-            .par_iter()
-            .zip(pairs.par_iter())
-            .map_init(Workspace::default, |workspace, (run, pair)| {
-                let out = run.result.as_ref().ok()?;
-                let Covariance::Bounded(c) = extended(out, inflation)? else {
-                    return out.covariance;
-                };
-                let (s, r) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
-                let (ss, rs) = (
-                    Surfaces::estimate(s, &params),
-                    Surfaces::estimate(r, &params),
-                );
-                let term = restart_term(
-                    reg.as_ref(),
-                    workspace,
-                    Prepared::new(s, &ss),
-                    Prepared::new(r, &rs),
-                    &out.t_ref_src,
-                );
-                Some(Covariance::Bounded(c + term))
-            })
-            .collect();
-        for (run, estimate) in variant_runs.iter_mut().zip(estimates) {
-            if let Ok(r) = run.result.as_mut() {
-                r.covariance = estimate;
-                r.jackknife_covariance = None;
-            }
-        }
-    }
+    replace::replace_covariances(
+        pairs,
+        registrars,
+        runs,
+        |reg| {
+            (
+                reg.surface_params(),
+                closed_form_inflation(&reg.spec().metric),
+            )
+        },
+        |reg, (params, inflation), workspace, _, out, pair| {
+            let Covariance::Bounded(c) = extended(out, *inflation)? else {
+                return out.covariance;
+            };
+            let (s, r) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+            let (ss, rs) = (Surfaces::estimate(s, params), Surfaces::estimate(r, params));
+            let term = restart_term(
+                reg,
+                workspace,
+                Prepared::new(s, &ss),
+                Prepared::new(r, &rs),
+                &out.t_ref_src,
+            );
+            Some(Covariance::Bounded(c + term))
+        },
+    );
 }

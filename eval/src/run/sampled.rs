@@ -23,9 +23,9 @@ use nalgebra::{Isometry2, Matrix3, Vector2, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
-use rayon::prelude::*;
 
 use crate::run::covariance::pose_error;
+use crate::run::replace;
 use crate::run::runner::Runs;
 
 /// Registrations per sampled covariance.
@@ -118,30 +118,23 @@ pub fn replace_covariances(
     registrars: &[Box<dyn Registrar>],
     runs: &mut Runs,
 ) {
-    for (reg, variant_runs) in registrars.iter().zip(runs.per_variant.iter_mut()) {
-        let estimates: Vec<Option<Covariance>> = variant_runs
-            .par_iter()
-            .zip(pairs.par_iter())
-            .enumerate()
-            .map_init(Workspace::default, |workspace, (position, (run, pair))| {
-                let solution = run.result.as_ref().ok()?.t_ref_src;
-                let mut rng = ChaCha8Rng::seed_from_u64(position as u64);
-                rng.set_stream(STREAM);
-                sampled_covariance(
-                    reg.as_ref(),
-                    &ds.scans[pair.source],
-                    &ds.scans[pair.reference],
-                    &solution,
-                    &ds.sensor,
-                    &mut rng,
-                    workspace,
-                )
-            })
-            .collect();
-        for (run, estimate) in variant_runs.iter_mut().zip(estimates) {
-            if let Ok(r) = run.result.as_mut() {
-                r.covariance = estimate;
-            }
-        }
-    }
+    replace::replace_covariances(
+        pairs,
+        registrars,
+        runs,
+        |_| (),
+        |reg, (), workspace, position, out, pair| {
+            let mut rng = ChaCha8Rng::seed_from_u64(position as u64);
+            rng.set_stream(STREAM);
+            sampled_covariance(
+                reg,
+                &ds.scans[pair.source],
+                &ds.scans[pair.reference],
+                &out.t_ref_src,
+                &ds.sensor,
+                &mut rng,
+                workspace,
+            )
+        },
+    );
 }

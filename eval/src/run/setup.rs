@@ -75,10 +75,10 @@ pub enum GlobalChecks {
 }
 
 impl EvalSetup {
-    /// The chains `specs` describe, built, with the reference alignment `offset` and the
-    /// reference checks on.
+    /// The chains `specs` describe, built, with the reference alignment `offset`, the
+    /// reference checks on and no covariance.
     pub fn from_specs(specs: &[VariantSpec], offset: OffsetChoice) -> Result<Self, ConfigError> {
-        Ok(Self {
+        let setup = Self {
             variants: specs
                 .iter()
                 .map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
@@ -92,7 +92,8 @@ impl EvalSetup {
             covariance: CovarianceMode::Off,
             estimates: Vec::new(),
             lags: 1,
-        })
+        };
+        Ok(setup.with_covariance(CovarianceMode::Off))
     }
 
     /// The same setup registering across lags up to `lags`.
@@ -168,15 +169,23 @@ impl EvalSetup {
         self.close_start_specs()?
             .into_iter()
             .map(|s| {
-                s.map(|s| Ok(Box::new(s.build()?) as Box<dyn Registrar>))
-                    .transpose()
+                s.map(|s| {
+                    let mut chain = s.build()?;
+                    chain.set_jackknife(self.covariance.is_extended());
+                    Ok(Box::new(chain) as Box<dyn Registrar>)
+                })
+                .transpose()
             })
             .collect()
     }
 
-    /// The same setup with the covariances of `mode`.
+    /// The same setup with the covariances of `mode` (its variants compute the jackknife
+    /// only when `mode` uses it).
     pub fn with_covariance(mut self, mode: CovarianceMode) -> Self {
         self.covariance = mode;
+        for variant in &mut self.variants {
+            variant.set_jackknife(mode.is_extended());
+        }
         self
     }
 
