@@ -270,7 +270,8 @@ impl LikelihoodGrid {
 
     /// Like [`Self::sum`], but `None` when the sum does not exceed `floor`, given up as soon as
     /// the cells left cannot lift it above `floor`: `headroom[k]` is the most that the cells
-    /// from `k` on can add. Adds the cells read to `read`.
+    /// of chunks `k..` ([`CHUNK`] cells each) can add. Writes each chunk's sum to `chunk_sums`
+    /// (whole only when the answer is `Some`) and adds the cells read to `read`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn sum_above(
@@ -282,22 +283,35 @@ impl LikelihoodGrid {
         offset: [i32; 2],
         floor: u64,
         read: &mut u64,
+        chunk_sums: &mut [u64],
     ) -> Option<u64> {
         let lv = &self.levels[level as usize];
         let mut sum = 0;
-        for (k, (c, w)) in cells.chunks(CHUNK).zip(weights.chunks(CHUNK)).enumerate() {
-            if sum + headroom[k * CHUNK] <= floor {
+        let chunks = cells.chunks(CHUNK).zip(weights.chunks(CHUNK));
+        for ((c, w), (&room, out)) in chunks.zip(headroom.iter().zip(chunk_sums)) {
+            if sum + room <= floor {
                 return None;
             }
             *read += c.len() as u64;
-            sum += lv.sum(c, w, offset);
+            *out = lv.sum(c, w, offset);
+            sum += *out;
         }
         (sum > floor).then_some(sum)
     }
 }
 
+/// Fills `headroom` with the suffix sums of `chunk_sums` (`headroom[k]`: chunks `k..`), the
+/// headroom of [`LikelihoodGrid::sum_above`].
+pub(crate) fn suffix_sums(chunk_sums: &[u64], headroom: &mut [u64]) {
+    let mut rest = 0;
+    for (h, &c) in headroom.iter_mut().zip(chunk_sums).rev() {
+        rest += c;
+        *h = rest;
+    }
+}
+
 /// Cells read between two checks of a sum against its floor.
-const CHUNK: usize = 16;
+pub(crate) const CHUNK: usize = 16;
 
 /// A likelihood in [0, 1] as a `u8`, rounded.
 fn quantise(v: f64) -> u8 {
