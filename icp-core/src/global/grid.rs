@@ -172,6 +172,7 @@ impl LikelihoodGrid {
         let mut data = vec![0u8; nx * ny];
         let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
         let reach_sq = reach_m * reach_m;
+        let below = exponent_below();
         // The cells whose centre may be within reach of coordinate c along one axis.
         let span = |c: f64, n: usize| {
             let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
@@ -186,8 +187,11 @@ impl LikelihoodGrid {
                 for i in span(px, nx) {
                     let dx = (i as f64 + 0.5) * resolution_m - px;
                     let d_sq = dx * dx + dy * dy;
-                    if d_sq <= reach_sq {
-                        row[i] = row[i].max(quantise((-d_sq * inv_two_var).exp()));
+                    let exponent = d_sq * inv_two_var;
+                    // Beyond `below[v]` the likelihood quantises to at most v: the cell keeps
+                    // its value, and the `exp` is not computed.
+                    if d_sq <= reach_sq && exponent <= below[usize::from(row[i])] {
+                        row[i] = row[i].max(quantise((-exponent).exp()));
                     }
                 }
             }
@@ -270,7 +274,8 @@ impl LikelihoodGrid {
 
     /// Like [`Self::sum`], but `None` when the sum does not exceed `floor`, given up as soon as
     /// the cells left cannot lift it above `floor`: `headroom[k]` is the most that the cells
-    /// from `k` on can add. Adds the cells read to `read`.
+    /// of chunks `k..` ([`CHUNK`] cells each) can add. Writes each chunk's sum to `chunk_sums`
+    /// (whole only when the answer is `Some`) and adds the cells read to `read`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn sum_above(
@@ -282,26 +287,52 @@ impl LikelihoodGrid {
         offset: [i32; 2],
         floor: u64,
         read: &mut u64,
+        chunk_sums: &mut [u64],
     ) -> Option<u64> {
         let lv = &self.levels[level as usize];
         let mut sum = 0;
-        for (k, (c, w)) in cells.chunks(CHUNK).zip(weights.chunks(CHUNK)).enumerate() {
-            if sum + headroom[k * CHUNK] <= floor {
+        let chunks = cells.chunks(CHUNK).zip(weights.chunks(CHUNK));
+        for ((c, w), (&room, out)) in chunks.zip(headroom.iter().zip(chunk_sums)) {
+            if sum + room <= floor {
                 return None;
             }
             *read += c.len() as u64;
-            sum += lv.sum(c, w, offset);
+            *out = lv.sum(c, w, offset);
+            sum += *out;
         }
         (sum > floor).then_some(sum)
     }
 }
 
+/// Fills `headroom` with the suffix sums of `chunk_sums` (`headroom[k]`: chunks `k..`), the
+/// headroom of [`LikelihoodGrid::sum_above`].
+pub(crate) fn suffix_sums(chunk_sums: &[u64], headroom: &mut [u64]) {
+    let mut rest = 0;
+    for (h, &c) in headroom.iter_mut().zip(chunk_sums).rev() {
+        rest += c;
+        *h = rest;
+    }
+}
+
 /// Cells read between two checks of a sum against its floor.
-const CHUNK: usize = 16;
+pub(crate) const CHUNK: usize = 16;
 
 /// A likelihood in [0, 1] as a `u8`, rounded.
 fn quantise(v: f64) -> u8 {
     (v * f64::from(FULL_SCALE)).round() as u8
+}
+
+/// Slack on [`exponent_below`]'s thresholds, far above the rounding of `exp` and `ln` (about
+/// 1e-16 relative) and far below a quantisation step.
+const EXPONENT_SLACK: f64 = 1e-9;
+
+/// `below[v]`: an `x ≥ 0` beyond which `quantise(exp(−x)) ≤ v` for certain: `255 e^{−x}` is
+/// below `v + ½` (where rounding would give `v + 1`) from `x = ln(255 / (v + ½))` on, and
+/// the slack covers the rounding of the computed `exp` and `ln`. (Negative for 255: every
+/// `x` beyond the slack.)
+fn exponent_below() -> [f64; 256] {
+    let full = f64::from(FULL_SCALE);
+    std::array::from_fn(|v| (full / (v as f64 + 0.5)).ln() + EXPONENT_SLACK)
 }
 
 /// Weight units per metre of range.
@@ -343,7 +374,7 @@ pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>
 
 #[cfg(test)]
 mod tests {
-    use super::max_shifted;
+    use super::{exponent_below, max_shifted, quantise};
     use proptest::prelude::*;
 
     proptest! {
@@ -360,6 +391,28 @@ mod tests {
             let mut out = vec![7];
             max_shifted(&mut out, &v, s);
             prop_assert_eq!(&out[1..], &expected[..]);
+        }
+
+        /// Beyond its threshold an exponent's likelihood never quantises above the value the
+        /// threshold is for (just past the threshold, and anywhere in the grid's range), and
+        /// every value is reached just below its own threshold: the skipped `exp`s would not
+        /// have changed a cell.
+        #[test]
+        fn skipped_exponents_change_no_cell(v in any::<u8>(), just_past in 0.0..1e-6f64, x in 0.0..4.6f64) {
+            let below = exponent_below();
+            let t = below[usize::from(v)];
+            for e in [t + just_past, t.next_up(), x] {
+                if e > t && e >= 0.0 {
+                    prop_assert!(quantise((-e).exp()) <= v, "v {} e {}", v, e);
+                }
+            }
+            if v < u8::MAX {
+                // The slack is small: a little below the threshold the value is above v.
+                let e = t - 2.0 * super::EXPONENT_SLACK - 1e-7;
+                if e >= 0.0 {
+                    prop_assert!(quantise((-e).exp()) > v, "v {} e {}", v, e);
+                }
+            }
         }
     }
 }

@@ -12,7 +12,7 @@
 
 use nalgebra::{Point2, UnitComplex, Vector2};
 
-use super::grid::{LikelihoodGrid, FULL_SCALE};
+use super::grid::{suffix_sums, LikelihoodGrid, CHUNK, FULL_SCALE};
 
 /// A node of the search: a rotation candidate, a level and the block of offsets it covers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,6 +25,9 @@ struct Node {
     offset: [i32; 2],
     /// The source's sum over `level` at `offset`: the bound of the block.
     sum: u64,
+    /// Where its chunk sums are kept: the index in the top-level nodes' (a top-level node) or
+    /// among its parent's children (0..4, the others).
+    slot: u32,
 }
 
 /// The best pose of a search.
@@ -44,8 +47,16 @@ pub(crate) struct Best {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Buffers {
     cells: Vec<[i32; 2]>,
+    /// The headroom of a top-level node: per chunk of points, the rest at full scale.
     headroom: Vec<u64>,
     top: Vec<Node>,
+    /// The chunk sums of the top-level nodes, `chunks` per node in the order scored.
+    top_chunks: Vec<u64>,
+    /// The chunk sums of the children of the last node expanded at each level: level `l`'s
+    /// child `s` at `((l − 1) · 4 + s) · chunks`.
+    child_chunks: Vec<u64>,
+    /// The headroom of the children of the node being expanded: its chunk sums' suffixes.
+    parent_room: Vec<u64>,
     stack: Vec<Node>,
     children: Vec<Node>,
 }
@@ -102,20 +113,25 @@ impl Search<'_> {
     /// [`Self::runner_up`] start from (with a floor no lower); returns the cells read.
     pub fn top_level(&self, buffers: &mut Buffers, floor: u64) -> u64 {
         let top_level = self.grid.depth();
-        // The most the points from k on can add: their weights at full scale.
+        let chunks = self.weights.len().div_ceil(CHUNK);
+        // The most the chunks from k on can add: their weights at full scale.
         buffers.headroom.clear();
-        buffers.headroom.resize(self.weights.len(), 0);
+        buffers.headroom.resize(chunks, 0);
         let mut rest = 0;
-        for (h, &w) in buffers.headroom.iter_mut().zip(self.weights).rev() {
-            rest += u64::from(w) * u64::from(FULL_SCALE);
+        let per_chunk = buffers.headroom.iter_mut().zip(self.weights.chunks(CHUNK));
+        for (h, chunk) in per_chunk.rev() {
+            rest += chunk.iter().map(|&w| u64::from(w)).sum::<u64>() * u64::from(FULL_SCALE);
             *h = rest;
         }
         buffers.top.clear();
+        buffers.top_chunks.clear();
         let w = self.window;
         let mut read = 0;
         for rotation in 0..self.rotations.len() {
             self.discretise(rotation, &mut buffers.cells);
             for offset in self.blocks([-w, -w], top_level, [w, w]) {
+                let slot = buffers.top.len();
+                buffers.top_chunks.resize((slot + 1) * chunks, 0);
                 let above = self.grid.sum_above(
                     top_level,
                     &buffers.cells,
@@ -124,6 +140,7 @@ impl Search<'_> {
                     offset,
                     floor,
                     &mut read,
+                    &mut buffers.top_chunks[slot * chunks..],
                 );
                 if let Some(sum) = above {
                     buffers.top.push(Node {
@@ -131,10 +148,12 @@ impl Search<'_> {
                         level: top_level,
                         offset,
                         sum,
+                        slot: slot as u32,
                     });
                 }
             }
         }
+        buffers.top_chunks.truncate(buffers.top.len() * chunks);
         // Best first; the sort is stable, so ties keep their generation order.
         buffers.top.sort_by_key(|node| std::cmp::Reverse(node.sum));
         read
@@ -183,13 +202,18 @@ impl Search<'_> {
     fn descend(&self, buffers: &mut Buffers, floor: u64, exclusion: Option<&Exclusion>) -> Best {
         let Buffers {
             cells,
-            headroom,
             top,
+            top_chunks,
+            child_chunks,
+            parent_room,
             stack,
             children,
             ..
         } = buffers;
         let grid = self.grid;
+        let chunks = self.weights.len().div_ceil(CHUNK);
+        child_chunks.resize(grid.depth() as usize * 4 * chunks, 0);
+        parent_room.resize(chunks, 0);
         let excluded = |node: &Node| exclusion.is_some_and(|e| e.covers(node));
         let elsewhere = |node: &Node| exclusion.is_some_and(|e| e.rotation != node.rotation);
         let mut best = Best {
@@ -219,24 +243,36 @@ impl Search<'_> {
                     continue;
                 }
                 let level = node.level - 1;
+                // A child's value at each point is at most the node's (the level above pools
+                // the child's and its siblings' cells): the node's chunk sums bound the
+                // child's, a headroom much tighter than full scale.
+                let own = |l: u32, slot: u32| (l as usize * 4 + slot as usize) * chunks;
+                let parent = if node.level == grid.depth() {
+                    &top_chunks[node.slot as usize * chunks..][..chunks]
+                } else {
+                    &child_chunks[own(node.level, node.slot)..][..chunks]
+                };
+                suffix_sums(parent, parent_room);
                 let half = 1i32 << level;
                 let last = [node.offset[0] + half, node.offset[1] + half];
                 children.clear();
-                for offset in self.blocks(node.offset, level, last) {
+                for (slot, offset) in (0..).zip(self.blocks(node.offset, level, last)) {
                     let above = grid.sum_above(
                         level,
                         cells,
                         self.weights,
-                        headroom,
+                        parent_room,
                         offset,
                         best.sum,
                         &mut best.lookups,
+                        &mut child_chunks[own(level, slot)..][..chunks],
                     );
                     if let Some(sum) = above {
                         children.push(Node {
                             level,
                             offset,
                             sum,
+                            slot,
                             ..node
                         });
                     }
