@@ -17,8 +17,8 @@ pub enum CovarianceMode {
     ClosedForm,
     /// Re-registration under resampled sensor noise and start (every variant).
     Sampled,
-    /// The direction-wise larger of the closed form and the grouped jackknife of its pairs
-    /// over angular sectors (the `extended` module).
+    /// The closed form lifted to the grouped jackknife of its pairs over angular sectors
+    /// where the jackknife is significantly larger (the `extended` module).
     Extended,
     /// [`CovarianceMode::Extended`] plus the spread of re-registrations from six perturbed
     /// starts (the `restarts` module).
@@ -44,7 +44,7 @@ pub const MODES: [(CovarianceMode, &str, &str); 5] = [
     (
         CovarianceMode::Extended,
         "extended",
-        "the larger, direction by direction, of the closed form and the jackknife of its pairs over 45° sectors: holds beyond the sensor model (point-to-line and GICP; the default)",
+        "the closed form, lifted direction by direction to the jackknife of its pairs over 45° sectors where that is significantly larger: holds beyond the sensor model (point-to-line and GICP; the default)",
     ),
     (
         CovarianceMode::Restarts,

@@ -3,10 +3,11 @@
 //! Censi's closed form (`icp_core::covariance`) carries only the noise the dataset's sensor
 //! model states. Real scans carry more: grazing-incidence and heavy-tailed range errors, mixed
 //! pixels, a tilted scan plane, motion within the revolution, objects that move. The extended
-//! covariance is the direction-wise larger ([`directional_max`]) of the closed form `C` (times
-//! its inflation, `closed_form_inflation` in the `covariance` module) and the grouped jackknife `C_jk` of the same final
-//! pairs over eight 45° sectors (`icp_core::covariance::Sandwich::jackknife_covariance`): how
-//! far the solution moves when each sector's pairs are left out. `C_jk` sees the errors the
+//! covariance is the closed form `C` (times its inflation, `closed_form_inflation` in the
+//! `covariance` module) lifted to the grouped jackknife `C_jk` of the same final pairs over
+//! eight 45° sectors (`icp_core::covariance::Sandwich::jackknife_covariance`: how far the
+//! solution moves when each sector's pairs are left out) along each direction where `C_jk`
+//! exceeds `C` by more than chance allows ([`significant_lift`]). `C_jk` sees the errors the
 //! residuals show, and errors shared within a sector that no single residual shows (a moving
 //! boat, a distorted wall); it needs no model and no re-registration: a few 3×3 solves per
 //! registration.
@@ -18,23 +19,53 @@
 //! and a floor (any floor that brings the rough harbour inside its interval takes the paper
 //! harbour's ANEES/3 below 0.8). The perturbed-restart term is a mode of its own
 //! (the `restarts` module).
+//!
+//! # Why only a significant excess
+//! With eight sectors the jackknife's variance along a direction is, where the closed form is
+//! right, the closed form's times a χ²₇/7 variable: about half the time above it by chance.
+//! Lifting every direction where it is above (the plain direction-wise maximum, the first
+//! design) therefore widens an honest covariance: by a factor 1/0.85 on ANEES under that null
+//! (a Wishart simulation), which is what the paper harbour showed (ANEES/3 0.74–0.87). A
+//! direction is lifted only where the ratio passes a variance-ratio test at the conventional
+//! 5 % level, [`SIGNIFICANT_RATIO`] = χ²₇(0.95)/7 ≈ 2.01. Measured (`icp-eval run --variants
+//! PL_ICP,HD_PL_ICP,GICP,HD_GICP --reference-checks off`), ANEES/3 and share inside 95 %,
+//! plain maximum → test per direction → test on the largest eigenvalue (q95 2.99): paper
+//! harbour HD_PL_ICP 0.79 / 94.8 % → 0.85 / 93.9 % → 0.91 / 94.2 %, HD_GICP 0.87 → 0.92 →
+//! 0.95; rough harbour HD_PL_ICP 1.33 / 91.8 % → 1.38 / 91.3 % → 1.48 / 90.7 %, HD_GICP 2.14
+//! → 2.22 → 2.32. The per-direction test was kept: the only one of the three with both
+//! harbours inside their intervals for HD_PL_ICP. The level is the textbook one, not fitted,
+//! but the choice among the three was made on the two synthetic harbours; marina's SOG z
+//! spread with the reference's noise stays 0.96–1.05 and aces moves by a few per cent.
 
+use icp_core::covariance::JACKKNIFE_SECTORS;
 use icp_core::{Covariance, Registration};
 use nalgebra::Matrix3;
 
 use crate::run::covariance::{reported, CovarianceMode};
 
-/// The direction-wise larger of `closed` and `empirical`: in the metric of `closed` (`C =
-/// L Lᵀ`), the eigenvalues `λ` of `L⁻¹ E L⁻ᵀ` raised to at least 1, `L V max(1, Λ) Vᵀ Lᵀ`:
-/// `closed` where the data agree with it, `empirical` along the directions where they show
-/// more. `None` when `closed` is not positive definite.
-pub fn directional_max(closed: &Matrix3<f64>, empirical: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+/// The variance ratio above which the jackknife's excess over the closed form along a
+/// direction is taken as real: χ²₇(0.95)/7, the 95 % quantile of a variance estimate with
+/// [`JACKKNIFE_SECTORS`]` − 1 = 7` degrees of freedom over its expectation.
+pub const SIGNIFICANT_RATIO: f64 = CHI2_7_Q95 / (JACKKNIFE_SECTORS - 1) as f64;
+
+/// χ²₇(0.95), the 95 % quantile of a chi-squared variable with 7 degrees of freedom.
+const CHI2_7_Q95: f64 = 14.067_140_449_340_169;
+
+/// `closed` lifted to `empirical` where it is significantly larger: in the metric of `closed`
+/// (`C = L Lᵀ`), each eigenvalue `λ` of `L⁻¹ E L⁻ᵀ` above [`SIGNIFICANT_RATIO`] kept and the
+/// others set to 1, `L V Λ' Vᵀ Lᵀ`: `closed` where the data agree with it (or exceed it by
+/// no more than chance allows), `empirical` along the directions where they show more. `None`
+/// when `closed` is not positive definite.
+pub fn significant_lift(closed: &Matrix3<f64>, empirical: &Matrix3<f64>) -> Option<Matrix3<f64>> {
     let l = closed.cholesky()?.l();
     let l_inv = l.try_inverse()?;
     let e = l_inv * empirical * l_inv.transpose();
     let eig = nalgebra::SymmetricEigen::new((e + e.transpose()) * 0.5);
     let lifted = eig.eigenvectors
-        * Matrix3::from_diagonal(&eig.eigenvalues.map(|v| v.max(1.0)))
+        * Matrix3::from_diagonal(
+            &eig.eigenvalues
+                .map(|v| if v > SIGNIFICANT_RATIO { v } else { 1.0 }),
+        )
         * eig.eigenvectors.transpose();
     let c = l * lifted * l.transpose();
     let c = (c + c.transpose()) * 0.5;
@@ -49,7 +80,7 @@ pub fn extended(reg: &Registration, inflation: f64) -> Option<Covariance> {
         return Some(closed);
     };
     let lifted = match reg.jackknife_covariance {
-        Some(Covariance::Bounded(e)) => directional_max(&c, &e).unwrap_or(c),
+        Some(Covariance::Bounded(e)) => significant_lift(&c, &e).unwrap_or(c),
         _ => c,
     };
     Some(Covariance::Bounded(lifted))
@@ -73,17 +104,49 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_directional_max_keeps_the_larger_along_each_direction() {
+    fn the_lift_keeps_the_larger_where_it_is_significantly_larger() {
         let c = Matrix3::new(4e-4, 1e-5, 0.0, 1e-5, 2e-4, 1e-6, 0.0, 1e-6, 1e-6);
-        // Against itself, or anything smaller, it is itself.
-        assert!((directional_max(&c, &c).unwrap() - c).norm() < 1e-18);
-        assert!((directional_max(&c, &(c * 0.5)).unwrap() - c).norm() < 1e-18);
-        assert!((directional_max(&c, &(c * 4.0)).unwrap() - c * 4.0).norm() < 1e-15);
-        // diag(1, 1, 1) against diag(4, 0.25, 1): diag(4, 1, 1).
-        let e = Matrix3::from_diagonal(&nalgebra::Vector3::new(4.0, 0.25, 1.0));
-        let m = directional_max(&Matrix3::identity(), &e).unwrap();
+        // Against itself, anything smaller, or anything larger by no more than chance allows,
+        // it is itself.
+        for k in [1.0, 0.5, 1.9] {
+            assert!(
+                (significant_lift(&c, &(c * k)).unwrap() - c).norm() < 1e-15,
+                "{k}"
+            );
+        }
+        assert!((significant_lift(&c, &(c * 4.0)).unwrap() - c * 4.0).norm() < 1e-15);
+        // diag(1, 1, 1) against diag(4, 0.25, 1.5): diag(4, 1, 1).
+        let e = Matrix3::from_diagonal(&nalgebra::Vector3::new(4.0, 0.25, 1.5));
+        let m = significant_lift(&Matrix3::identity(), &e).unwrap();
         let want = Matrix3::from_diagonal(&nalgebra::Vector3::new(4.0, 1.0, 1.0));
         assert!((m - want).norm() < 1e-12, "{m}");
-        assert_eq!(directional_max(&Matrix3::zeros(), &e), None);
+        assert_eq!(significant_lift(&Matrix3::zeros(), &e), None);
+    }
+
+    /// χ²₇(0.95) against the chi-squared distribution itself: its density integrated from 0
+    /// (Simpson's rule) reaches 0.95 there.
+    #[test]
+    fn the_quantile_is_chi_squared_7s_95_percent_point() {
+        // χ²₇'s density, x^(5/2) e^(−x/2) / (2^(7/2) Γ(7/2)), Γ(7/2) = 15 √π / 8.
+        let gamma = 15.0 * std::f64::consts::PI.sqrt() / 8.0;
+        let density = |x: f64| x.powf(2.5) * (-x / 2.0).exp() / (2f64.powf(3.5) * gamma);
+        let n = 20_000;
+        let h = CHI2_7_Q95 / n as f64;
+        let simpson: f64 = (0..=n)
+            .map(|i| {
+                let w = if i == 0 || i == n {
+                    1.0
+                } else if i % 2 == 1 {
+                    4.0
+                } else {
+                    2.0
+                };
+                w * density(i as f64 * h)
+            })
+            .sum::<f64>()
+            * h
+            / 3.0;
+        assert!((simpson - 0.95).abs() < 1e-9, "{simpson}");
+        assert!((SIGNIFICANT_RATIO - 2.00959).abs() < 1e-5);
     }
 }
