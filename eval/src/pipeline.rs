@@ -14,7 +14,6 @@ use crate::run::restarts;
 use crate::run::runner::{self, Runs};
 use crate::run::sampled;
 use crate::run::setup::{checked_pairs, EvalSetup, GlobalChecks};
-use crate::run::status::PairStatus;
 
 /// Runs every variant of `setup` over every consecutive pair of `ds` (and across lags, with
 /// `setup.lags` above 1: their loops flag inconsistent registrations) and builds the report.
@@ -60,11 +59,12 @@ pub fn report(
     let Some(lagged) = lagged else {
         return build::build(ds, pairs, skipped, setup, &runs);
     };
-    // The loops' flags join the others before the records are made.
+    // The loops' flags (only ever on a registration nothing else flagged) join the others
+    // before the records are made.
     let checked = cycles::check(setup, &runs, lagged);
     for (variant, flags) in runs.per_variant.iter_mut().zip(&checked.flags) {
         for (run, flag) in variant.iter_mut().zip(flags) {
-            if let (Some(flag), PairStatus::Ok) = (flag, &run.status) {
+            if let Some(flag) = flag {
                 run.status = flag.clone();
             }
         }

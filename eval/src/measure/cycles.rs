@@ -11,7 +11,8 @@
 //! therefore closes even when every registration in it carries such an error: it checks
 //! association failures and gross errors (a registration in a wrong minimum breaks every loop
 //! through it), not the covariance. The loop's predicted σ (the members' covariances summed,
-//! frames and levers aside) overstates what the loop can show for the same reason.
+//! frames, levers and the extended modes' motion term aside) overstates what the loop can show
+//! for the same reason.
 //!
 //! # The flag
 //! A lag-1 registration `A = k → k+1` has two alternatives across lag 2: `(k−1 → k+1)·(k−1 →

@@ -160,8 +160,8 @@ mod tests {
             .map(|j| moving(Vector3::new(if j < 6 { 1.0 } else { 1.2 }, 0.0, 0.0)))
             .collect();
         let got = terms(&runs, Some(SWEEP_S));
-        // Pair 9's window: 9 and 4..=7, 11 (10 and 8 use pair 9's own registration); the
-        // changes are 0.1 at 5 and 6, zero at the other three.
+        // Pair 9's window: 4..=7 and 9 (10 and 8 use pair 9's own registration, 11 has no
+        // Δv); the changes are 0.1 at 5 and 6, zero at the other three.
         let want = SWEEP_S * SWEEP_S / 4.0 * (2.0 * 0.1 * 0.1) / 5.0;
         let c = got[9].unwrap();
         assert!((c[(0, 0)] - want).abs() < 1e-12 * want, "{c}");
