@@ -172,7 +172,7 @@ impl LikelihoodGrid {
         let mut data = vec![0u8; nx * ny];
         let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
         let reach_sq = reach_m * reach_m;
-        let below = exponent_below();
+        let below = &*EXPONENT_BELOW;
         // The cells whose centre may be within reach of coordinate c along one axis.
         let span = |c: f64, n: usize| {
             let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
@@ -325,6 +325,9 @@ fn quantise(v: f64) -> u8 {
 /// Slack on [`exponent_below`]'s thresholds, far above the rounding of `exp` and `ln` (about
 /// 1e-16 relative) and far below a quantisation step.
 const EXPONENT_SLACK: f64 = 1e-9;
+
+/// [`exponent_below`], made once per process rather than once per grid.
+static EXPONENT_BELOW: std::sync::LazyLock<[f64; 256]> = std::sync::LazyLock::new(exponent_below);
 
 /// `below[v]`: an `x ≥ 0` beyond which `quantise(exp(−x)) ≤ v` for certain: `255 e^{−x}` is
 /// below `v + ½` (where rounding would give `v + 1`) from `x = ln(255 / (v + ½))` on, and
