@@ -77,30 +77,24 @@ pub fn replace_covariances(
     registrars: &[Box<dyn Registrar>],
     runs: &mut Runs,
 ) {
-    replace::replace_covariances(
-        pairs,
-        registrars,
-        runs,
-        |reg| {
-            (
-                reg.surface_params(),
-                closed_form_inflation(&reg.spec().metric),
-            )
-        },
-        |reg, (params, inflation), workspace, _, out, pair| {
-            let Covariance::Bounded(c) = extended(out, *inflation)? else {
-                return out.covariance;
-            };
-            let (s, r) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
-            let (ss, rs) = (Surfaces::estimate(s, params), Surfaces::estimate(r, params));
-            let term = restart_term(
-                reg,
-                workspace,
-                Prepared::new(s, &ss),
-                Prepared::new(r, &rs),
-                &out.t_ref_src,
-            );
-            Some(Covariance::Bounded(c + term))
-        },
-    );
+    replace::replace_covariances(pairs, registrars, runs, |reg, workspace, _, out, pair| {
+        let inflation = closed_form_inflation(&reg.spec().metric);
+        let Covariance::Bounded(c) = extended(out, inflation)? else {
+            return out.covariance;
+        };
+        let params = reg.surface_params();
+        let (s, r) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+        let (ss, rs) = (
+            Surfaces::estimate(s, &params),
+            Surfaces::estimate(r, &params),
+        );
+        let term = restart_term(
+            reg,
+            workspace,
+            Prepared::new(s, &ss),
+            Prepared::new(r, &rs),
+            &out.t_ref_src,
+        );
+        Some(Covariance::Bounded(c + term))
+    });
 }

@@ -122,8 +122,7 @@ pub fn replace_covariances(
         pairs,
         registrars,
         runs,
-        |_| (),
-        |reg, (), workspace, position, out, pair| {
+        |reg, workspace, position, out, pair| {
             let mut rng = ChaCha8Rng::seed_from_u64(position as u64);
             rng.set_stream(STREAM);
             sampled_covariance(
