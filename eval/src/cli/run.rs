@@ -64,8 +64,8 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     pub(crate) estimates: Vec<EstimatesSpec>,
     /// Also register every scan k to scan k+ℓ for 2 ≤ ℓ ≤ LAGS, and flag a consecutive
-    /// registration that disagrees with both loops through its neighbours (`cycles.csv`;
-    /// 1: consecutive pairs only).
+    /// registration that disagrees with every trusted loop through its neighbours (one whose
+    /// registrations are all ok; `cycles.csv`; 1: consecutive pairs only).
     #[arg(long, default_value_t = 1)]
     pub(crate) lags: usize,
     /// Output directory.

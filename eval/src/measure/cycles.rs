@@ -1,7 +1,7 @@
 //! Truth-free self-consistency across lags (`--lags L`): every loop of consecutive
 //! registrations `k → k+1 → … → k+ℓ` against the direct registration `k → k+ℓ`
-//! ([`crate::run::lags`]), and the lag-1 registrations that disagree with both loops through
-//! their neighbours while those agree with each other (status `inconsistent`).
+//! ([`crate::run::lags`]), and the lag-1 registrations that disagree with every trusted loop
+//! through their neighbours (status `inconsistent`; see "The flag" below).
 //!
 //! # What a loop checks, and what it cannot
 //! Errors that act like a shift of one scan cancel around a loop: if scan `j` is seen in a
