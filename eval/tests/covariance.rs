@@ -1,6 +1,6 @@
 //! The covariance columns of a run: the sampled estimate is the same whatever the thread count,
 //! the closed form gives point-to-point variants nothing, an unbounded covariance gives empty
-//! cells and a flag, and no table holds a NaN.
+//! cells and a flag, restarts only widen the extended covariance, and no table holds a NaN.
 
 use datasets::synthetic::{generate, Scenario};
 use eval::measure::consistency::fill;
@@ -173,4 +173,42 @@ fn the_nees_figure_is_drawn_against_chi2_3() {
     let off = evaluate(&ds, &setup(CovarianceMode::Off), &ProgressBar::hidden()).unwrap();
     assert!(off.pairs.iter().all(|r| r.nees.is_none()));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `restarts` is the extended covariance plus the spread of six re-registrations from
+/// perturbed starts (`run::restarts`): on every point-to-line pair it is the extended one
+/// plus a positive semi-definite term, not smaller along any direction, and the term is not
+/// zero everywhere; a point-to-point variant gets none in either mode.
+#[test]
+fn restarts_add_a_positive_term_to_the_extended_covariance() {
+    let ds = generate(&Scenario {
+        n_scans: 8,
+        ..Scenario::rough()
+    })
+    .unwrap();
+    let run = |mode| evaluate(&ds, &setup(mode), &ProgressBar::hidden()).unwrap();
+    let (extended, restarts) = (run(CovarianceMode::Extended), run(CovarianceMode::Restarts));
+    let matrix = |r: &PairRecord| {
+        let c = covariance_cells(r);
+        c[..6].iter().all(Option::is_some).then(|| {
+            let [xx, xy, xt, yy, yt, tt] = [c[0], c[1], c[2], c[3], c[4], c[5]].map(Option::unwrap);
+            nalgebra::Matrix3::new(xx, xy, xt, xy, yy, yt, xt, yt, tt)
+        })
+    };
+    let mut widened = 0;
+    for (e, r) in extended.pairs.iter().zip(&restarts.pairs) {
+        assert_eq!((&e.variant, e.pair), (&r.variant, r.pair));
+        if e.variant == "HD_ICP" {
+            assert!(matrix(e).is_none() && matrix(r).is_none());
+            continue;
+        }
+        let (Some(ce), Some(cr)) = (matrix(e), matrix(r)) else {
+            panic!("pair {} has no covariance", e.pair)
+        };
+        let term = nalgebra::SymmetricEigen::new(cr - ce).eigenvalues;
+        let scale = ce.norm();
+        assert!(term.min() >= -1e-9 * scale, "pair {}: {term}", e.pair);
+        widened += usize::from(term.max() > 1e-6 * scale);
+    }
+    assert!(widened > 0, "no pair widened by its restarts");
 }
