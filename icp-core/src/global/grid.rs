@@ -12,16 +12,11 @@
 
 use nalgebra::{Isometry2, Point2};
 
+use super::likelihood::{EXPONENT_BELOW, QUANTISED_EXP};
+pub use super::likelihood::{FULL_SCALE, TRUNCATION_SIGMAS};
 use crate::error::ScanRole;
 use crate::scan::Return;
 use crate::{IcpError, Scan};
-
-/// The likelihood is cut to 0 beyond this many σ from every reference point
-/// (`exp(−4.5) ≈ 0.011`).
-pub const TRUNCATION_SIGMAS: f64 = 3.0;
-
-/// The quantised likelihood of 1.
-pub const FULL_SCALE: u8 = u8::MAX;
 
 /// Most cells along a side of a level.
 const MAX_SIDE_CELLS: f64 = (1 << 26) as f64;
@@ -172,7 +167,7 @@ impl LikelihoodGrid {
         let mut data = vec![0u8; nx * ny];
         let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
         let reach_sq = reach_m * reach_m;
-        let below = &*EXPONENT_BELOW;
+        let (below, quantised_exp) = (&*EXPONENT_BELOW, &*QUANTISED_EXP);
         // The cells whose centre may be within reach of coordinate c along one axis.
         let span = |c: f64, n: usize| {
             let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
@@ -189,9 +184,9 @@ impl LikelihoodGrid {
                     let d_sq = dx * dx + dy * dy;
                     let exponent = d_sq * inv_two_var;
                     // Beyond `below[v]` the likelihood quantises to at most v: the cell keeps
-                    // its value, and the `exp` is not computed.
+                    // its value, and the likelihood is not looked up.
                     if d_sq <= reach_sq && exponent <= below[usize::from(row[i])] {
-                        row[i] = row[i].max(quantise((-exponent).exp()));
+                        row[i] = row[i].max(quantised_exp.of(exponent));
                     }
                 }
             }
@@ -317,27 +312,6 @@ pub(crate) fn suffix_sums(chunk_sums: &[u64], headroom: &mut [u64]) {
 /// Cells read between two checks of a sum against its floor.
 pub(crate) const CHUNK: usize = 16;
 
-/// A likelihood in [0, 1] as a `u8`, rounded.
-fn quantise(v: f64) -> u8 {
-    (v * f64::from(FULL_SCALE)).round() as u8
-}
-
-/// Slack on [`exponent_below`]'s thresholds, far above the rounding of `exp` and `ln` (about
-/// 1e-16 relative) and far below a quantisation step.
-const EXPONENT_SLACK: f64 = 1e-9;
-
-/// [`exponent_below`], made once per process rather than once per grid.
-static EXPONENT_BELOW: std::sync::LazyLock<[f64; 256]> = std::sync::LazyLock::new(exponent_below);
-
-/// `below[v]`: an `x ≥ 0` beyond which `quantise(exp(−x)) ≤ v` for certain: `255 e^{−x}` is
-/// below `v + ½` (where rounding would give `v + 1`) from `x = ln(255 / (v + ½))` on, and
-/// the slack covers the rounding of the computed `exp` and `ln`. (Negative for 255: every
-/// `x` beyond the slack.)
-fn exponent_below() -> [f64; 256] {
-    let full = f64::from(FULL_SCALE);
-    std::array::from_fn(|v| (full / (v as f64 + 0.5)).ln() + EXPONENT_SLACK)
-}
-
 /// Weight units per metre of range.
 const WEIGHT_PER_M: f64 = 64.0;
 
@@ -377,7 +351,7 @@ pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>
 
 #[cfg(test)]
 mod tests {
-    use super::{exponent_below, max_shifted, quantise};
+    use super::max_shifted;
     use proptest::prelude::*;
 
     proptest! {
@@ -394,28 +368,6 @@ mod tests {
             let mut out = vec![7];
             max_shifted(&mut out, &v, s);
             prop_assert_eq!(&out[1..], &expected[..]);
-        }
-
-        /// Beyond its threshold an exponent's likelihood never quantises above the value the
-        /// threshold is for (just past the threshold, and anywhere in the grid's range), and
-        /// every value is reached just below its own threshold: the skipped `exp`s would not
-        /// have changed a cell.
-        #[test]
-        fn skipped_exponents_change_no_cell(v in any::<u8>(), just_past in 0.0..1e-6f64, x in 0.0..4.6f64) {
-            let below = exponent_below();
-            let t = below[usize::from(v)];
-            for e in [t + just_past, t.next_up(), x] {
-                if e > t && e >= 0.0 {
-                    prop_assert!(quantise((-e).exp()) <= v, "v {} e {}", v, e);
-                }
-            }
-            if v < u8::MAX {
-                // The slack is small: a little below the threshold the value is above v.
-                let e = t - 2.0 * super::EXPONENT_SLACK - 1e-7;
-                if e >= 0.0 {
-                    prop_assert!(quantise((-e).exp()) > v, "v {} e {}", v, e);
-                }
-            }
         }
     }
 }

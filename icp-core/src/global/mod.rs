@@ -74,6 +74,7 @@
 mod check;
 pub mod grid;
 mod histogram;
+mod likelihood;
 mod search;
 
 use nalgebra::{Isometry2, Point2, Translation2, UnitComplex, Vector2};
