@@ -287,6 +287,20 @@ impl BlockJob<'_> {
         }
     }
 
+    /// The global search of `pair` made again where a chain's variant needs it (see
+    /// [`Self::search`]), with its wall time, microseconds; `None` and 0 without searches.
+    fn search_again<'w>(
+        &self,
+        pair: ScanPair,
+        workspace: &'w mut GlobalWorkspace,
+    ) -> (Option<Searched<'w>>, f64) {
+        if !self.plan.searches() {
+            return (None, 0.0);
+        }
+        let (searched, info) = self.search(pair, workspace);
+        (searched, info.time_us)
+    }
+
     /// Registers `pair` with the variant (its registrar, and the one a close start uses when
     /// that differs) from each start of the chain in turn, until a result is not flagged
     /// (else the last one is kept); `previous` is the variant's previous result and `searched`
@@ -439,8 +453,10 @@ fn run_blocks(
         };
         if plan.chain.sequential() {
             // A start depends on the same variant's previous result: the pairs' searches are
-            // made first (in parallel; a grid is rebuilt where a result is scored), then each
-            // variant runs its pairs in order, the variants in parallel.
+            // made first (in parallel), then each variant runs its pairs in order, the
+            // variants in parallel, rebuilding a pair's grid where it needs its guess or
+            // checks a result; those rebuilds and checks count in the pair's search time.
+            let searched_from = pair_searches.len();
             if searches {
                 let made: Vec<PairSearch> = block
                     .par_iter()
@@ -450,7 +466,7 @@ fn run_blocks(
                     .collect();
                 pair_searches.extend(made);
             }
-            let runs: Vec<Vec<PairRun>> = registrars
+            let runs: Vec<Vec<(PairRun, f64)>> = registrars
                 .par_iter()
                 .zip(per_variant.par_iter())
                 .enumerate()
@@ -464,7 +480,7 @@ fn run_blocks(
                     block
                         .iter()
                         .map(|&pair| {
-                            let searched = searches.then(|| job.search(pair, &mut gws).0).flatten();
+                            let (searched, search_us) = job.search_again(pair, &mut gws);
                             let run = job.run(
                                 (reg.as_ref(), methods.gated(v)),
                                 &mut workspace,
@@ -474,24 +490,36 @@ fn run_blocks(
                             );
                             progress.inc(1);
                             previous = Some(previous_of(ds, pair, &run));
-                            run
+                            let check_us = searched.as_ref().map_or(0.0, Searched::check_us);
+                            (run, search_us + check_us)
                         })
                         .collect()
                 })
                 .collect();
+            let block_searches = &mut pair_searches[searched_from..];
             for (variant, block_runs) in per_variant.iter_mut().zip(runs) {
-                variant.extend(block_runs);
+                for (i, (run, search_us)) in block_runs.into_iter().enumerate() {
+                    if let Some(search) = block_searches.get_mut(i) {
+                        search.time_us += search_us;
+                    }
+                    variant.push(run);
+                }
             }
             if !methods.external.is_empty() {
-                let assessed: Vec<Vec<PairRun>> = block
+                let assessed: Vec<(Vec<PairRun>, f64)> = block
                     .par_iter()
                     .enumerate()
                     .map_init(GlobalWorkspace::default, |gws, (i, &pair)| {
-                        let searched = searches.then(|| job.search(pair, gws).0).flatten();
-                        assess_all(i, pair, searched.as_ref())
+                        let (searched, search_us) = job.search_again(pair, gws);
+                        let runs = assess_all(i, pair, searched.as_ref());
+                        let check_us = searched.as_ref().map_or(0.0, Searched::check_us);
+                        (runs, search_us + check_us)
                     })
                     .collect();
-                for pair_runs in assessed {
+                for (i, (pair_runs, search_us)) in assessed.into_iter().enumerate() {
+                    if let Some(search) = block_searches.get_mut(i) {
+                        search.time_us += search_us;
+                    }
                     for (variant, run) in per_variant[n..].iter_mut().zip(pair_runs) {
                         variant.push(run);
                     }
