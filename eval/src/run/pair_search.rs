@@ -9,7 +9,7 @@
 //! answer no early; when something does, it finds the search's best pose, the one the rule has
 //! always been applied to. The decisions are those of a check against the full search.
 
-use std::cell::{Cell, RefCell};
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use icp_core::global::{
@@ -20,13 +20,14 @@ use nalgebra::Isometry2;
 
 use crate::run::status::{clearly_better, GlobalCheck};
 
-/// A pair's global search, used on the thread that made it.
+/// A pair's global search, shared by the threads that register the pair (a check's answer
+/// does not depend on the checks before it).
 pub(crate) struct Searched<'w> {
     matcher: GlobalMatcher,
-    source: RefCell<SourceSearch<'w>>,
+    source: Mutex<SourceSearch<'w>>,
     guess: Option<GlobalGuess>,
     /// Wall time of the checks so far, microseconds.
-    check_us: Cell<f64>,
+    check_us: Mutex<f64>,
 }
 
 impl<'w> Searched<'w> {
@@ -44,9 +45,9 @@ impl<'w> Searched<'w> {
         let guess = best.then(|| matcher.best(&mut prepared));
         Ok(Self {
             matcher,
-            source: RefCell::new(prepared),
+            source: Mutex::new(prepared),
             guess,
-            check_us: Cell::new(0.0),
+            check_us: Mutex::new(0.0),
         })
     }
 
@@ -57,24 +58,25 @@ impl<'w> Searched<'w> {
 
     /// Wall time of the checks made so far, microseconds.
     pub fn check_us(&self) -> f64 {
-        self.check_us.get()
+        *self.check_us.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
     /// What the search says about `result` of the source scan `source`.
     pub fn check(&self, result: &Registration, source: &Scan) -> GlobalCheck {
+        // Timed once the search is this thread's: waiting for another's check is not this one.
+        let mut prepared = self.source.lock().unwrap_or_else(PoisonError::into_inner);
         let clock = Instant::now();
         let result_score = score_at(self.matcher.grid(), source, &result.t_ref_src);
         let above = self
             .matcher
-            .best_above(&mut self.source.borrow_mut(), |score| {
-                clearly_better(score, result_score)
-            });
+            .best_above(&mut prepared, |score| clearly_better(score, result_score));
+        drop(prepared);
         let (best_t_ref_src, best_score) = match above {
             Above::Best { t_ref_src, score } => (Some(t_ref_src), score),
             Above::AtMost { score } => (None, score),
         };
-        self.check_us
-            .set(self.check_us.get() + clock.elapsed().as_secs_f64() * 1e6);
+        *self.check_us.lock().unwrap_or_else(PoisonError::into_inner) +=
+            clock.elapsed().as_secs_f64() * 1e6;
         GlobalCheck {
             best_t_ref_src,
             best_score,

@@ -154,6 +154,10 @@ impl<'a> Methods<'a> {
     }
 }
 
+/// Pairs searched at once where starts chain pairs: their grids are held while every variant
+/// registers them (~2 MB each on the synthetic harbour).
+const CHAINED_PAIRS: usize = 16;
+
 /// Pairs per block. The surface estimates of the block's scans (one more than its pairs when
 /// they are consecutive) are held at once: ~12 MB for scans of ~650 returns. A block is long
 /// enough for the threads' barrier at its end to cost nothing measurable.
@@ -287,20 +291,6 @@ impl BlockJob<'_> {
         }
     }
 
-    /// The global search of `pair` made again where a chain's variant needs it (see
-    /// [`Self::search`]), with its wall time, microseconds; `None` and 0 without searches.
-    fn search_again<'w>(
-        &self,
-        pair: ScanPair,
-        workspace: &'w mut GlobalWorkspace,
-    ) -> (Option<Searched<'w>>, f64) {
-        if !self.plan.searches() {
-            return (None, 0.0);
-        }
-        let (searched, info) = self.search(pair, workspace);
-        (searched, info.time_us)
-    }
-
     /// Registers `pair` with the variant (its registrar, and the one a close start uses when
     /// that differs) from each start of the chain in turn, until a result is not flagged
     /// (else the last one is kept); `previous` is the variant's previous result and `searched`
@@ -431,6 +421,14 @@ fn run_blocks(
     let mut per_variant: Vec<Vec<PairRun>> = (0..methods.len())
         .map(|_| Vec::with_capacity(pairs.len()))
         .collect();
+    // Where starts chain pairs: the searches of the pairs in flight, and each variant's
+    // registration buffers.
+    let mut chained: Vec<GlobalWorkspace> = Vec::new();
+    let mut variant_workspaces: Vec<Workspace> = Vec::new();
+    if plan.chain.sequential() {
+        chained.resize_with(CHAINED_PAIRS, GlobalWorkspace::default);
+        variant_workspaces.resize_with(n, Workspace::default);
+    }
     for (b, block) in pairs.chunks(block_pairs).enumerate() {
         prepared.advance(ds, block, &mut prepare_us);
         let job = BlockJob {
@@ -452,77 +450,70 @@ fn run_blocks(
                 .collect::<Vec<PairRun>>()
         };
         if plan.chain.sequential() {
-            // A start depends on the same variant's previous result: the pairs' searches are
-            // made first (in parallel), then each variant runs its pairs in order, the
-            // variants in parallel, rebuilding a pair's grid where it needs its guess or
-            // checks a result; those rebuilds and checks count in the pair's search time.
-            let searched_from = pair_searches.len();
-            if searches {
-                let made: Vec<PairSearch> = block
+            // A start depends on the same variant's previous result: each variant runs the
+            // pairs in order, the variants in parallel. The pairs' searches are made a few
+            // pairs at a time, in parallel, and shared by every variant (one grid per pair);
+            // the variants' checks ask them in any order, which changes no answer.
+            for (p, part) in block.chunks(CHAINED_PAIRS).enumerate() {
+                let built: Vec<(Option<Searched>, Option<PairSearch>)> = part
                     .par_iter()
-                    .map_init(GlobalWorkspace::default, |gws, &pair| {
-                        job.search(pair, gws).1
+                    .zip(chained.par_iter_mut())
+                    .map(|(&pair, gws)| {
+                        if !searches {
+                            return (None, None);
+                        }
+                        let (searched, info) = job.search(pair, gws);
+                        (searched, Some(info))
                     })
                     .collect();
-                pair_searches.extend(made);
-            }
-            let runs: Vec<Vec<(PairRun, f64)>> = registrars
-                .par_iter()
-                .zip(per_variant.par_iter())
-                .enumerate()
-                .map(|(v, (reg, done))| {
-                    let mut workspace = Workspace::default();
-                    let mut gws = GlobalWorkspace::default();
-                    // Carried over from the block before.
-                    let mut previous = done
-                        .last()
-                        .map(|run| previous_of(ds, pairs[done.len() - 1], run));
-                    block
-                        .iter()
-                        .map(|&pair| {
-                            let (searched, search_us) = job.search_again(pair, &mut gws);
-                            let run = job.run(
-                                (reg.as_ref(), methods.gated(v)),
-                                &mut workspace,
-                                pair,
-                                previous.as_ref(),
-                                searched.as_ref(),
-                            );
-                            progress.inc(1);
-                            previous = Some(previous_of(ds, pair, &run));
-                            let check_us = searched.as_ref().map_or(0.0, Searched::check_us);
-                            (run, search_us + check_us)
-                        })
-                        .collect()
-                })
-                .collect();
-            let block_searches = &mut pair_searches[searched_from..];
-            for (variant, block_runs) in per_variant.iter_mut().zip(runs) {
-                for (i, (run, search_us)) in block_runs.into_iter().enumerate() {
-                    if let Some(search) = block_searches.get_mut(i) {
-                        search.time_us += search_us;
-                    }
-                    variant.push(run);
-                }
-            }
-            if !methods.external.is_empty() {
-                let assessed: Vec<(Vec<PairRun>, f64)> = block
+                let runs: Vec<Vec<PairRun>> = registrars
                     .par_iter()
+                    .zip(per_variant.par_iter())
+                    .zip(variant_workspaces.par_iter_mut())
                     .enumerate()
-                    .map_init(GlobalWorkspace::default, |gws, (i, &pair)| {
-                        let (searched, search_us) = job.search_again(pair, gws);
-                        let runs = assess_all(i, pair, searched.as_ref());
-                        let check_us = searched.as_ref().map_or(0.0, Searched::check_us);
-                        (runs, search_us + check_us)
+                    .map(|(v, ((reg, done), workspace))| {
+                        // Carried over from the pairs before.
+                        let mut previous = done
+                            .last()
+                            .map(|run| previous_of(ds, pairs[done.len() - 1], run));
+                        part.iter()
+                            .zip(&built)
+                            .map(|(&pair, (searched, _))| {
+                                let run = job.run(
+                                    (reg.as_ref(), methods.gated(v)),
+                                    workspace,
+                                    pair,
+                                    previous.as_ref(),
+                                    searched.as_ref(),
+                                );
+                                progress.inc(1);
+                                previous = Some(previous_of(ds, pair, &run));
+                                run
+                            })
+                            .collect()
                     })
                     .collect();
-                for (i, (pair_runs, search_us)) in assessed.into_iter().enumerate() {
-                    if let Some(search) = block_searches.get_mut(i) {
-                        search.time_us += search_us;
-                    }
+                for (variant, part_runs) in per_variant.iter_mut().zip(runs) {
+                    variant.extend(part_runs);
+                }
+                let assessed: Vec<Vec<PairRun>> = part
+                    .par_iter()
+                    .zip(built.par_iter())
+                    .enumerate()
+                    .map(|(i, (&pair, (searched, _)))| {
+                        assess_all(p * CHAINED_PAIRS + i, pair, searched.as_ref())
+                    })
+                    .collect();
+                for pair_runs in assessed {
                     for (variant, run) in per_variant[n..].iter_mut().zip(pair_runs) {
                         variant.push(run);
                     }
+                }
+                for (searched, info) in built {
+                    pair_searches.extend(info.map(|info| PairSearch {
+                        time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
+                        ..info
+                    }));
                 }
             }
             continue;
