@@ -12,7 +12,7 @@
 
 use nalgebra::{Point2, UnitComplex, Vector2};
 
-use super::grid::{suffix_sums, LikelihoodGrid, CHUNK, FULL_SCALE};
+use super::grid::{suffix_sums, LikelihoodGrid, Lookup, CHUNK, FULL_SCALE};
 
 /// A node of the search: a rotation candidate, a level and the block of offsets it covers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,8 +46,11 @@ pub(crate) struct Best {
 /// Reused buffers of the search.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Buffers {
-    cells: Vec<[i32; 2]>,
-    /// The headroom of a top-level node: per chunk of points, the rest at full scale.
+    /// The lookups of every rotation's returns (those that may add to a sum), rotation
+    /// `r`'s at `starts[r]..starts[r + 1]`, made by [`Search::top_level`] for the descents.
+    lookups: Vec<Lookup>,
+    starts: Vec<usize>,
+    /// The headroom of a top-level node: per chunk of lookups, the rest at full scale.
     headroom: Vec<u64>,
     top: Vec<Node>,
     /// The chunk sums of the top-level nodes, `chunks` per node in the order scored.
@@ -78,15 +81,22 @@ pub(crate) struct Search<'a> {
 }
 
 impl Search<'_> {
-    /// The cells of the source points rotated by candidate `rotation` and moved to the centre.
-    fn discretise(&self, rotation: usize, cells: &mut Vec<[i32; 2]>) {
+    /// The source points rotated by candidate `rotation` and moved to the centre.
+    fn moved(&self, rotation: usize) -> impl ExactSizeIterator<Item = Point2<f64>> + '_ {
         let r = UnitComplex::new(self.rotations[rotation]);
-        cells.clear();
-        cells.extend(
-            self.points
-                .iter()
-                .map(|p| self.grid.cell_of(&(r * p + self.centre))),
-        );
+        self.points.iter().map(move |p| r * p + self.centre)
+    }
+
+    /// Appends to `lookups` those of the returns at candidate `rotation` that may add to a
+    /// sum (see [`LikelihoodGrid::lookups`]), in the order of the points.
+    fn lookups(&self, rotation: usize, lookups: &mut Vec<Lookup>) {
+        let returns = self.moved(rotation).zip(self.weights.iter().copied());
+        self.grid.lookups(returns, lookups);
+    }
+
+    /// Rotation `rotation`'s lookups in `buffers` (made by [`Self::top_level`]).
+    fn of_rotation<'b>(lookups: &'b [Lookup], starts: &[usize], rotation: usize) -> &'b [Lookup] {
+        &lookups[starts[rotation]..starts[rotation + 1]]
     }
 
     /// The offsets of the level-`level` blocks starting at `origin` that lie in the window,
@@ -112,38 +122,49 @@ impl Search<'_> {
     /// `buffers`, sorted best first, and the headroom of the sums, that [`Self::above`] and
     /// [`Self::runner_up`] start from (with a floor no lower); returns the cells read.
     pub fn top_level(&self, buffers: &mut Buffers, floor: u64) -> u64 {
-        let top_level = self.grid.depth();
+        let grid = self.grid;
+        let top_level = grid.depth();
         let chunks = self.weights.len().div_ceil(CHUNK);
-        // The most the chunks from k on can add: their weights at full scale.
-        buffers.headroom.clear();
-        buffers.headroom.resize(chunks, 0);
-        let mut rest = 0;
-        let per_chunk = buffers.headroom.iter_mut().zip(self.weights.chunks(CHUNK));
-        for (h, chunk) in per_chunk.rev() {
-            rest += chunk.iter().map(|&w| u64::from(w)).sum::<u64>() * u64::from(FULL_SCALE);
-            *h = rest;
-        }
-        buffers.top.clear();
-        buffers.top_chunks.clear();
+        let Buffers {
+            lookups,
+            starts,
+            headroom,
+            top,
+            top_chunks,
+            ..
+        } = buffers;
+        lookups.clear();
+        starts.clear();
+        starts.push(0);
+        top.clear();
+        top_chunks.clear();
         let w = self.window;
         let mut read = 0;
         for rotation in 0..self.rotations.len() {
-            self.discretise(rotation, &mut buffers.cells);
+            self.lookups(rotation, lookups);
+            starts.push(lookups.len());
+            let mine = Self::of_rotation(lookups, starts, rotation);
+            // The most the chunks from k on can add: their weights at full scale.
+            headroom.clear();
+            headroom.extend(mine.chunks(CHUNK).map(|chunk| {
+                let weight: u64 = chunk.iter().map(|l| u64::from(l.weight)).sum();
+                weight * u64::from(FULL_SCALE)
+            }));
+            suffix_sums(headroom);
             for offset in self.blocks([-w, -w], top_level, [w, w]) {
-                let slot = buffers.top.len();
-                buffers.top_chunks.resize((slot + 1) * chunks, 0);
-                let above = self.grid.sum_above(
+                let slot = top.len();
+                top_chunks.resize((slot + 1) * chunks, 0);
+                let above = grid.sum_above(
                     top_level,
-                    &buffers.cells,
-                    self.weights,
-                    &buffers.headroom,
-                    offset,
+                    mine,
+                    headroom,
+                    grid.shift(offset),
                     floor,
                     &mut read,
-                    &mut buffers.top_chunks[slot * chunks..],
+                    &mut top_chunks[slot * chunks..],
                 );
                 if let Some(sum) = above {
-                    buffers.top.push(Node {
+                    top.push(Node {
                         rotation: rotation as u32,
                         level: top_level,
                         offset,
@@ -153,9 +174,9 @@ impl Search<'_> {
                 }
             }
         }
-        buffers.top_chunks.truncate(buffers.top.len() * chunks);
+        top_chunks.truncate(top.len() * chunks);
         // Best first; the sort is stable, so ties keep their generation order.
-        buffers.top.sort_by_key(|node| std::cmp::Reverse(node.sum));
+        top.sort_by_key(|node| std::cmp::Reverse(node.sum));
         read
     }
 
@@ -201,7 +222,8 @@ impl Search<'_> {
     /// outside its offsets.
     fn descend(&self, buffers: &mut Buffers, floor: u64, exclusion: Option<&Exclusion>) -> Best {
         let Buffers {
-            cells,
+            lookups,
+            starts,
             top,
             top_chunks,
             child_chunks,
@@ -213,7 +235,6 @@ impl Search<'_> {
         let grid = self.grid;
         let chunks = self.weights.len().div_ceil(CHUNK);
         child_chunks.resize(grid.depth() as usize * 4 * chunks, 0);
-        parent_room.resize(chunks, 0);
         let excluded = |node: &Node| exclusion.is_some_and(|e| e.covers(node));
         let elsewhere = |node: &Node| exclusion.is_some_and(|e| e.rotation != node.rotation);
         let mut best = Best {
@@ -229,7 +250,8 @@ impl Search<'_> {
             if elsewhere(root) {
                 continue;
             }
-            self.discretise(root.rotation as usize, cells);
+            let mine = Self::of_rotation(lookups, starts, root.rotation as usize);
+            let used = mine.len().div_ceil(CHUNK);
             stack.clear();
             stack.push(*root);
             while let Some(node) = stack.pop() {
@@ -248,21 +270,22 @@ impl Search<'_> {
                 // child's, a headroom much tighter than full scale.
                 let own = |l: u32, slot: u32| (l as usize * 4 + slot as usize) * chunks;
                 let parent = if node.level == grid.depth() {
-                    &top_chunks[node.slot as usize * chunks..][..chunks]
+                    &top_chunks[node.slot as usize * chunks..][..used]
                 } else {
-                    &child_chunks[own(node.level, node.slot)..][..chunks]
+                    &child_chunks[own(node.level, node.slot)..][..used]
                 };
-                suffix_sums(parent, parent_room);
+                parent_room.clear();
+                parent_room.extend_from_slice(parent);
+                suffix_sums(parent_room);
                 let half = 1i32 << level;
                 let last = [node.offset[0] + half, node.offset[1] + half];
                 children.clear();
                 for (slot, offset) in (0..).zip(self.blocks(node.offset, level, last)) {
                     let above = grid.sum_above(
                         level,
-                        cells,
-                        self.weights,
+                        mine,
                         parent_room,
-                        offset,
+                        grid.shift(offset),
                         best.sum,
                         &mut best.lookups,
                         &mut child_chunks[own(level, slot)..][..chunks],
@@ -322,7 +345,6 @@ impl Search<'_> {
     /// The best pose by scoring every offset of every rotation at level 0: the oracle the
     /// branch and bound must equal.
     pub fn brute_force(&self) -> Best {
-        let mut cells = Vec::new();
         let mut best = Best {
             rotation: None,
             offset: [0, 0],
@@ -331,7 +353,10 @@ impl Search<'_> {
         };
         let w = self.window;
         for rotation in 0..self.rotations.len() {
-            self.discretise(rotation, &mut cells);
+            let cells: Vec<[i32; 2]> = self
+                .moved(rotation)
+                .map(|q| self.grid.cell_of(&q))
+                .collect();
             for offset in self.blocks([-w, -w], 0, [w, w]) {
                 let sum = self.grid.sum(0, &cells, self.weights, offset);
                 best.lookups += cells.len() as u64;
@@ -357,8 +382,10 @@ mod tests {
 
     /// The level-0 sum of one pose of `search`.
     fn sum_at(search: &Search<'_>, rotation: usize, offset: [i32; 2]) -> u64 {
-        let mut cells = Vec::new();
-        search.discretise(rotation, &mut cells);
+        let cells: Vec<[i32; 2]> = search
+            .moved(rotation)
+            .map(|q| search.grid.cell_of(&q))
+            .collect();
         search.grid.sum(0, &cells, search.weights, offset)
     }
 
@@ -385,7 +412,7 @@ mod tests {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
             let grid =
-                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, u64::MAX)
+                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, window, u64::MAX)
                     .unwrap();
             let points: Vec<Point2<f64>> =
                 source.iter().map(|&(x, y, _)| Point2::new(x, y)).collect();
@@ -452,7 +479,7 @@ mod tests {
         };
         let pts: Vec<[f64; 2]> = (0..240).map(wall).collect();
         let scan = Scan::from_cartesian(&pts).unwrap();
-        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, u64::MAX).unwrap();
+        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, 20, u64::MAX).unwrap();
         let points: Vec<Point2<f64>> = scan
             .returns()
             .iter()
