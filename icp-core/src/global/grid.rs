@@ -259,22 +259,17 @@ impl LikelihoodGrid {
         let (high_x, high_y) = (f64::from(self.nx + w), f64::from(self.ny + w));
         let (stride, shift) = (self.stride, self.pad - w);
         let (origin, inv_res) = (self.origin, 1.0 / self.resolution_m);
-        // Written in place, the next one over any left out (a tighter loop than a push each).
-        let start = out.len();
-        out.resize(start + returns.len(), Lookup::default());
-        let mut kept = start;
+        out.reserve(returns.len());
         for (q, weight) in returns {
             let [fx, fy] = cell_coordinates(&q, origin, inv_res);
             if (low..high_x).contains(&fx) && (low..high_y).contains(&fy) {
                 let (i, j) = (floor(fx) + shift, floor(fy) + shift);
-                out[kept] = Lookup {
+                out.push(Lookup {
                     index: (j as usize * stride + i as usize) as u32,
                     weight,
-                };
-                kept += 1;
+                });
             }
         }
-        out.truncate(kept);
     }
 
     /// What offset `offset` (in `−window..=window` on each axis) adds to a [`Lookup`]'s index.
@@ -342,7 +337,7 @@ impl LikelihoodGrid {
 }
 
 /// A source return ready for the sums of one rotation: see [`LikelihoodGrid::lookup`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Lookup {
     /// Its cell's index in every level at the window's lowest offset.
     index: u32,
