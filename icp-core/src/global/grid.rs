@@ -326,10 +326,12 @@ impl LikelihoodGrid {
                 return None;
             }
             *read += chunk.len() as u64;
-            *out = chunk
-                .iter()
-                .map(|l| u64::from(cells[l.index as usize]) * u64::from(l.weight))
-                .sum();
+            let weighted = |l: &Lookup| u64::from(cells[l.index as usize]) * u64::from(l.weight);
+            // A whole chunk has a fixed length: its loop is unrolled.
+            *out = match <&[Lookup; CHUNK]>::try_from(chunk) {
+                Ok(whole) => whole.iter().map(weighted).sum(),
+                Err(_) => chunk.iter().map(weighted).sum(),
+            };
             sum += *out;
         }
         (sum > floor).then_some(sum)
