@@ -57,12 +57,14 @@ fn max_ahead(v: &[u8], s: usize) -> Vec<u8> {
 /// Every level has one layout, padded with 0 so that a source return looked up at any
 /// offset of the translation window stays inside it: cell `(i, j)` is at index
 /// `(j + pad) · stride + i + pad` of each level, for `i` in `−pad..stride − pad` and `j` in
-/// `−pad..rows − pad`, with `pad = 2^depth − 1 + 2 · window` and `window` more cells past the
-/// far side of level 0. A return is looked up by its index at the window's lowest offset plus
+/// `−pad..rows − pad`, with `pad = 2^(depth + 1) − 1 + 2 · window` (the level above the top
+/// included) and `2 · window + 2^depth` more cells past the far side of level 0. A return is looked up by its index at the window's lowest offset plus
 /// the offset's [`Self::shift`] (see [`Self::index_of`]): no bounds test per axis.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LikelihoodGrid {
-    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself.
+    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself. One level
+    /// more than the pyramid's depth: the top one pooled once more, for the bounds over
+    /// several rotations at once (see `Search::top_level`).
     levels: Vec<Vec<u8>>,
     /// Cells along x and y of level 0 that may be non-zero.
     nx: i32,
@@ -117,8 +119,10 @@ impl LikelihoodGrid {
         let origin = Point2::new(lo.x - reach_m, lo.y - reach_m);
         let cells = |extent_m: f64| ((extent_m + 2.0 * reach_m) / resolution_m).floor() + 1.0;
         let (fx, fy) = (cells(hi.x - lo.x), cells(hi.y - lo.y));
-        let pad = ((1u64 << depth) - 1) as f64 + 2.0 * f64::from(window);
-        let padded = |n: f64| n + pad + 2.0 * f64::from(window);
+        // The level above the top pools 2^(depth + 1) cells, and a return's cell under a group
+        // of rotations lies up to 2^depth cells past its lowest one (see `Self::group_keeps`).
+        let pad = ((1u64 << (depth + 1)) - 1) as f64 + 2.0 * f64::from(window);
+        let padded = |n: f64| n + pad + 2.0 * f64::from(window) + (1u64 << depth) as f64;
         let side = padded(fx.max(fy));
         if side > MAX_SIDE_CELLS {
             return Err(IcpError::GlobalSearchTooLarge {
@@ -135,7 +139,7 @@ impl LikelihoodGrid {
                 max: MAX_LEVEL_CELLS,
             });
         }
-        let total = f64::from(depth + 1) * per_level;
+        let total = f64::from(depth + 2) * per_level;
         if total > max_cells as f64 {
             return Err(IcpError::GlobalSearchTooLarge {
                 what: "grid cells (max_grid_cells)",
@@ -173,7 +177,7 @@ impl LikelihoodGrid {
             }
         }
         let mut levels = vec![data];
-        for h in 1..=depth {
+        for h in 1..=depth + 1 {
             let next = pooled(&levels[h as usize - 1], 1 << (h - 1), stride);
             levels.push(next);
         }
@@ -203,7 +207,7 @@ impl LikelihoodGrid {
 
     /// Max-pooled levels above level 0.
     pub fn depth(&self) -> u32 {
-        self.levels.len() as u32 - 1
+        self.levels.len() as u32 - 2
     }
 
     /// Cells along x and y of level 0.
@@ -335,6 +339,30 @@ impl LikelihoodGrid {
             sum += *out;
         }
         (sum > floor).then_some(sum)
+    }
+}
+
+impl LikelihoodGrid {
+    /// True when a return whose lowest cell under a group of rotations is `lo` may add to a
+    /// sum of the level above the top, or to one of the top level's under a rotation of the
+    /// group (its cell there in `lo..=lo + 2^depth`): `lo` in `−(2^(depth+1) − 1) − w..n + w`,
+    /// the cells of that level that may be non-zero less the window's offsets. Then the
+    /// lookups [`Self::lookup_at`] makes of `lo` and of every such cell stay inside the levels.
+    pub(crate) fn group_keeps(&self, lo: [i32; 2]) -> bool {
+        let w = self.window;
+        let low = 1 - (2 << self.depth()) - w;
+        (low..self.nx + w).contains(&lo[0]) && (low..self.ny + w).contains(&lo[1])
+    }
+
+    /// The lookup of a return at `cell` with `weight`, for a cell that [`Self::lookups`]
+    /// keeps or that is `lo..=lo + 2^depth` for an `lo` that [`Self::group_keeps`].
+    pub(crate) fn lookup_at(&self, [i, j]: [i32; 2], weight: u32) -> Lookup {
+        let shift = self.pad - self.window;
+        let (a, b) = ((i + shift) as usize, (j + shift) as usize);
+        Lookup {
+            index: (b * self.stride + a) as u32,
+            weight,
+        }
     }
 }
 
