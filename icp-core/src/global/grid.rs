@@ -21,83 +21,56 @@ use crate::{IcpError, Scan};
 /// Most cells along a side of a level.
 const MAX_SIDE_CELLS: f64 = (1 << 26) as f64;
 
+/// Most cells of a level, padding included: a cell's index fits a `u32`.
+const MAX_LEVEL_CELLS: f64 = (1u64 << 32) as f64;
+
 /// Cell coordinates are clamped to ±this: far outside any level (see [`MAX_SIDE_CELLS`]) even
-/// after a window offset (at most 2^12 cells) and a level's offset (less than 2^14 cells), and
-/// far from `i32` overflow.
+/// after a window offset (at most 2^12 cells) and a level's padding (less than 2^15 cells),
+/// and far from `i32` overflow.
 const FAR_CELL: f64 = (1 << 28) as f64;
 
-/// One level of the pyramid: `data[(j + offset) * nx + i + offset]` is the cell `(i, j)` for
-/// `i` in `−offset..nx − offset` (and likewise `j`).
-#[derive(Clone, Debug, PartialEq)]
-struct Level {
-    data: Vec<u8>,
-    nx: u32,
-    ny: u32,
-    offset: i32,
+/// The level above `level` (which pools blocks of `s` cells, the result `2s`) in the layout
+/// shared by every level (rows of `stride` cells): the cell at index `k` is the max of the
+/// cells at `k`, `k + s`, `k + s·stride` and `k + s·stride + s`, pooled along x then along
+/// y. An index past the end reads 0, and one past a row's end reads the next row's start,
+/// which is padding (0) at every level but the top one (see [`LikelihoodGrid::new`]).
+fn pooled(level: &[u8], s: usize, stride: usize) -> Vec<u8> {
+    max_ahead(&max_ahead(level, s), s * stride)
 }
 
-impl Level {
-    /// The value of cell `(i, j)`, 0 outside the level.
-    #[inline]
-    fn value(&self, [i, j]: [i32; 2]) -> u8 {
-        // A negative index wraps to a large u32 and fails the test: one compare per axis.
-        let (a, b) = ((i + self.offset) as u32, (j + self.offset) as u32);
-        if a < self.nx && b < self.ny {
-            self.data[b as usize * self.nx as usize + a as usize]
-        } else {
-            0
-        }
-    }
-
-    /// The sum over `cells`, each shifted by `offset` and weighted by `weights`.
-    #[inline]
-    fn sum(&self, cells: &[[i32; 2]], weights: &[u32], [dx, dy]: [i32; 2]) -> u64 {
-        cells
-            .iter()
-            .zip(weights)
-            .map(|(&[i, j], &w)| u64::from(self.value([i + dx, j + dy])) * u64::from(w))
-            .sum()
-    }
-
-    /// The level above `self` (`self` pools blocks of `s` cells, the result `2s`):
-    /// `max` of the cells at `(i, j)`, `(i + s, j)`, `(i, j + s)` and `(i + s, j + s)`, pooled
-    /// along x then along y.
-    fn pooled(&self, s: u32) -> Level {
-        let (nx, ny, s) = (self.nx as usize, self.ny as usize, s as usize);
-        let (mx, my) = (nx + s, ny + s);
-        let mut along_x = Vec::with_capacity(mx * ny);
-        for row in self.data.chunks_exact(nx) {
-            max_shifted(&mut along_x, row, s);
-        }
-        // Along y the rows are shifted by s rows: the same operation on the whole array.
-        let mut data = Vec::with_capacity(mx * my);
-        max_shifted(&mut data, &along_x, s * mx);
-        Level {
-            data,
-            nx: mx as u32,
-            ny: my as u32,
-            offset: self.offset + s as i32,
-        }
-    }
-}
-
-/// Appends to `out` `max(v[a − s], v[a])` for `a` in `0..v.len() + s`, a missing `v` being 0:
-/// in array indices, the pooled cell `a` of a level offset by `s` more than `v`'s. Written
-/// once each, without zeroing the cells first.
-fn max_shifted(out: &mut Vec<u8>, v: &[u8], s: usize) {
-    let n = v.len();
-    let lead = s.min(n);
-    out.extend_from_slice(&v[..lead]);
-    out.extend(v[lead..].iter().zip(v).map(|(&a, &b)| a.max(b)));
-    out.extend(std::iter::repeat_n(0, s.saturating_sub(n)));
-    out.extend_from_slice(&v[n - lead..]);
+/// `max(v[k], v[k + s])` for every `k` of `v`, a missing `v[k + s]` being 0.
+fn max_ahead(v: &[u8], s: usize) -> Vec<u8> {
+    let s = s.min(v.len());
+    let mut out = Vec::with_capacity(v.len());
+    out.extend(v.iter().zip(&v[s..]).map(|(&a, &b)| a.max(b)));
+    out.extend_from_slice(&v[v.len() - s..]);
+    out
 }
 
 /// The likelihood grid of one reference scan with its max-pooled pyramid (see the module doc).
+///
+/// Every level has one layout, padded with 0 so that a source return looked up at any
+/// offset of the translation window stays inside it: cell `(i, j)` is at index
+/// `(j + pad) · stride + i + pad` of each level, for `i` in `−pad..stride − pad` and `j` in
+/// `−pad..rows − pad`, with `pad = 2^(depth + 1) − 1 + 2 · window` (the level above the top
+/// included) and `2 · window + 2^depth` more cells past the far side of level 0. A return is looked up by its index at the window's lowest offset plus
+/// the offset's [`Self::shift`] (see [`Self::index_of`]): no bounds test per axis.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LikelihoodGrid {
-    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself.
-    levels: Vec<Level>,
+    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself. One level
+    /// more than the pyramid's depth: the top one pooled once more, for the bounds over
+    /// several rotations at once (see `Search::top_level`).
+    levels: Vec<Vec<u8>>,
+    /// Cells along x and y of level 0 that may be non-zero.
+    nx: i32,
+    ny: i32,
+    /// Cells of a row and rows of every level, padding included.
+    stride: usize,
+    rows: usize,
+    /// Padding cells before cell `(0, 0)` along each axis.
+    pad: i32,
+    /// Offsets run over `−window..=window` cells on each axis.
+    window: i32,
     /// The lower-left corner of cell `(0, 0)`, reference frame, metres.
     origin: Point2<f64>,
     resolution_m: f64,
@@ -106,16 +79,17 @@ pub struct LikelihoodGrid {
 
 impl LikelihoodGrid {
     /// The grid of `reference`'s points with cells of `resolution_m`, the likelihood's
-    /// `sigma_m` and `depth` max-pooled levels above level 0 (parameters assumed valid:
-    /// see [`super::GlobalParams::validate`]).
+    /// `sigma_m`, `depth` max-pooled levels above level 0, padded for offsets of up to
+    /// `window` cells (parameters assumed valid: see [`super::GlobalParams::validate`]).
     ///
     /// `Err(TooFewPoints)` for a scan without returns, `Err(GlobalSearchTooLarge)` when the levels
-    /// together would hold more than `max_cells` cells.
+    /// together, padding included, would hold more than `max_cells` cells.
     pub(crate) fn new(
         reference: &Scan,
         resolution_m: f64,
         sigma_m: f64,
         depth: u32,
+        window: i32,
         max_cells: u64,
     ) -> Result<Self, IcpError> {
         let points: Vec<Point2<f64>> = reference
@@ -140,8 +114,11 @@ impl LikelihoodGrid {
         let origin = Point2::new(lo.x - reach_m, lo.y - reach_m);
         let cells = |extent_m: f64| ((extent_m + 2.0 * reach_m) / resolution_m).floor() + 1.0;
         let (fx, fy) = (cells(hi.x - lo.x), cells(hi.y - lo.y));
-        let top_pad = ((1u64 << depth) - 1) as f64;
-        let side = fx.max(fy) + top_pad;
+        // The level above the top pools 2^(depth + 1) cells, and a return's cell under a group
+        // of rotations lies up to 2^depth cells past its lowest one (see `Self::group_keeps`).
+        let pad = ((1u64 << (depth + 1)) - 1) as f64 + 2.0 * f64::from(window);
+        let padded = |n: f64| n + pad + 2.0 * f64::from(window) + (1u64 << depth) as f64;
+        let side = padded(fx.max(fy));
         if side > MAX_SIDE_CELLS {
             return Err(IcpError::GlobalSearchTooLarge {
                 what: "grid cells along a side",
@@ -149,13 +126,15 @@ impl LikelihoodGrid {
                 max: MAX_SIDE_CELLS,
             });
         }
-        // Every level holds (n + 2^h − 1) cells a side.
-        let total: f64 = (0..=depth)
-            .map(|h| {
-                let pad = ((1u64 << h) - 1) as f64;
-                (fx + pad) * (fy + pad)
-            })
-            .sum();
+        let per_level = padded(fx) * padded(fy);
+        if per_level > MAX_LEVEL_CELLS {
+            return Err(IcpError::GlobalSearchTooLarge {
+                what: "grid cells of a level",
+                count: per_level,
+                max: MAX_LEVEL_CELLS,
+            });
+        }
+        let total = f64::from(depth + 2) * per_level;
         if total > max_cells as f64 {
             return Err(IcpError::GlobalSearchTooLarge {
                 what: "grid cells (max_grid_cells)",
@@ -164,7 +143,8 @@ impl LikelihoodGrid {
             });
         }
         let (nx, ny) = (fx as usize, fy as usize);
-        let mut data = vec![0u8; nx * ny];
+        let (stride, rows, pad) = (padded(fx) as usize, padded(fy) as usize, pad as usize);
+        let mut data = vec![0u8; stride * rows];
         let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
         let reach_sq = reach_m * reach_m;
         let (below, quantised_exp) = (&*EXPONENT_BELOW, &*QUANTISED_EXP);
@@ -178,7 +158,7 @@ impl LikelihoodGrid {
             let (px, py) = (p.x - origin.x, p.y - origin.y);
             for j in span(py, ny) {
                 let dy = (j as f64 + 0.5) * resolution_m - py;
-                let row = &mut data[j * nx..(j + 1) * nx];
+                let row = &mut data[(j + pad) * stride + pad..][..nx];
                 for i in span(px, nx) {
                     let dx = (i as f64 + 0.5) * resolution_m - px;
                     let d_sq = dx * dx + dy * dy;
@@ -191,18 +171,19 @@ impl LikelihoodGrid {
                 }
             }
         }
-        let mut levels = vec![Level {
-            data,
-            nx: nx as u32,
-            ny: ny as u32,
-            offset: 0,
-        }];
-        for h in 1..=depth {
-            let next = levels[h as usize - 1].pooled(1 << (h - 1));
+        let mut levels = vec![data];
+        for h in 1..=depth + 1 {
+            let next = pooled(&levels[h as usize - 1], 1 << (h - 1), stride);
             levels.push(next);
         }
         Ok(Self {
             levels,
+            nx: nx as i32,
+            ny: ny as i32,
+            stride,
+            rows,
+            pad: pad as i32,
+            window,
             origin,
             resolution_m,
             sigma_m,
@@ -221,96 +202,200 @@ impl LikelihoodGrid {
 
     /// Max-pooled levels above level 0.
     pub fn depth(&self) -> u32 {
-        self.levels.len() as u32 - 1
+        self.levels.len() as u32 - 2
     }
 
     /// Cells along x and y of level 0.
     pub fn size(&self) -> (usize, usize) {
-        (self.levels[0].nx as usize, self.levels[0].ny as usize)
+        (self.nx as usize, self.ny as usize)
     }
 
     /// The cell holding `q` (reference frame): integer cell coordinates, clamped far outside
     /// the grid when `q` is far away or not finite.
     #[inline]
     pub(crate) fn cell_of(&self, q: &Point2<f64>) -> [i32; 2] {
-        let inv_res = 1.0 / self.resolution_m;
-        let c = |v: f64, o: f64| {
-            let f = (v - o) * inv_res;
+        let c = |f: f64| {
             // NaN fails the test and goes far away too.
             if (-FAR_CELL..=FAR_CELL).contains(&f) {
-                // The floor, without a call to libm's: truncated, less one below zero.
-                let t = f as i32;
-                t - i32::from(f64::from(t) > f)
+                floor(f)
             } else {
                 FAR_CELL as i32
             }
         };
-        [c(q.x, self.origin.x), c(q.y, self.origin.y)]
+        cell_coordinates(q, self.origin, 1.0 / self.resolution_m).map(c)
     }
 
     /// The quantised value at level `level` of cell `cell` (0 outside the grid).
     #[inline]
-    pub(crate) fn value(&self, level: u32, cell: [i32; 2]) -> u8 {
-        self.levels[level as usize].value(cell)
+    pub(crate) fn value(&self, level: u32, [i, j]: [i32; 2]) -> u8 {
+        // A negative index wraps to a large u32 and fails the test: one compare per axis.
+        let (a, b) = (
+            (i + self.pad) as u32 as usize,
+            (j + self.pad) as u32 as usize,
+        );
+        if a < self.stride && b < self.rows {
+            self.levels[level as usize][b * self.stride + a]
+        } else {
+            0
+        }
+    }
+
+    /// Appends to `out` the lookups of `returns` (reference frame, with their weights) that
+    /// may add to a sum, in their order: a return's lookup is its cell's ([`Self::cell_of`])
+    /// index at the window's lowest offset; it is left out when its cell lies so far outside
+    /// that no offset of the window brings it onto a cell of any level that may be non-zero
+    /// (level `h`'s cells `i` in `1 − 2^h..nx`, likewise `j`), adding 0 to every sum.
+    pub(crate) fn lookups(
+        &self,
+        returns: impl ExactSizeIterator<Item = (Point2<f64>, u32)>,
+        out: &mut Vec<Lookup>,
+    ) {
+        let w = self.window;
+        let top = (1 << self.depth()) - 1;
+        // A cell `floor(f)` in `−top − w..n + w` is an `f` in `[−top − w, n + w)`, and NaN is
+        // in none; then `c − w + pad ≥ 0` and `c + w + pad < stride` (or `rows`).
+        let low = f64::from(-top - w);
+        let (high_x, high_y) = (f64::from(self.nx + w), f64::from(self.ny + w));
+        let (stride, shift) = (self.stride, self.pad - w);
+        let (origin, inv_res) = (self.origin, 1.0 / self.resolution_m);
+        out.reserve(returns.len());
+        for (q, weight) in returns {
+            let [fx, fy] = cell_coordinates(&q, origin, inv_res);
+            if (low..high_x).contains(&fx) && (low..high_y).contains(&fy) {
+                let (i, j) = (floor(fx) + shift, floor(fy) + shift);
+                out.push(Lookup {
+                    index: (j as usize * stride + i as usize) as u32,
+                    weight,
+                });
+            }
+        }
+    }
+
+    /// What offset `offset` (in `−window..=window` on each axis) adds to a [`Lookup`]'s index.
+    #[inline]
+    pub(crate) fn shift(&self, [dx, dy]: [i32; 2]) -> usize {
+        let w = self.window;
+        debug_assert!(
+            dx.abs() <= w && dy.abs() <= w,
+            "offset {dx}, {dy} outside ±{w}"
+        );
+        (dy + w) as usize * self.stride + (dx + w) as usize
     }
 
     /// The sum over `cells`, each shifted by `offset` and weighted by `weights`, at level
-    /// `level`.
+    /// `level`, cell by cell: the definition that the lookups' sums equal.
     #[cfg(test)]
     pub(crate) fn sum(
         &self,
         level: u32,
         cells: &[[i32; 2]],
         weights: &[u32],
-        offset: [i32; 2],
+        [dx, dy]: [i32; 2],
     ) -> u64 {
-        self.levels[level as usize].sum(cells, weights, offset)
+        cells
+            .iter()
+            .zip(weights)
+            .map(|(&[i, j], &w)| u64::from(self.value(level, [i + dx, j + dy])) * u64::from(w))
+            .sum()
     }
 
-    /// Like [`Self::sum`], but `None` when the sum does not exceed `floor`, given up as soon as
-    /// the cells left cannot lift it above `floor`: `headroom[k]` is the most that the cells
-    /// of chunks `k..` ([`CHUNK`] cells each) can add. Writes each chunk's sum to `chunk_sums`
+    /// The weighted sum at level `level` of `lookups` moved by the offset of `shift` (see
+    /// [`Self::shift`]), or `None` when it does not exceed `floor`, given up as soon as the
+    /// lookups left cannot lift it above `floor`: `headroom[k]` is the most that the lookups
+    /// of chunks `k..` ([`CHUNK`] each) can add. Writes each chunk's sum to `chunk_sums`
     /// (whole only when the answer is `Some`) and adds the cells read to `read`.
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn sum_above(
         &self,
         level: u32,
-        cells: &[[i32; 2]],
-        weights: &[u32],
+        lookups: &[Lookup],
         headroom: &[u64],
-        offset: [i32; 2],
+        shift: usize,
         floor: u64,
         read: &mut u64,
         chunk_sums: &mut [u64],
     ) -> Option<u64> {
-        let lv = &self.levels[level as usize];
+        // Every lookup's index plus the shift is inside the level (see `Self::lookup`).
+        let cells = &self.levels[level as usize][shift..];
         let mut sum = 0;
-        let chunks = cells.chunks(CHUNK).zip(weights.chunks(CHUNK));
-        for ((c, w), (&room, out)) in chunks.zip(headroom.iter().zip(chunk_sums)) {
+        let chunks = lookups.chunks(CHUNK).zip(headroom.iter().zip(chunk_sums));
+        for (chunk, (&room, out)) in chunks {
             if sum + room <= floor {
                 return None;
             }
-            *read += c.len() as u64;
-            *out = lv.sum(c, w, offset);
+            *read += chunk.len() as u64;
+            let weighted = |l: &Lookup| u64::from(cells[l.index as usize]) * u64::from(l.weight);
+            // A whole chunk has a fixed length: its loop is unrolled.
+            *out = match <&[Lookup; CHUNK]>::try_from(chunk) {
+                Ok(whole) => whole.iter().map(weighted).sum(),
+                Err(_) => chunk.iter().map(weighted).sum(),
+            };
             sum += *out;
         }
         (sum > floor).then_some(sum)
     }
 }
 
-/// Fills `headroom` with the suffix sums of `chunk_sums` (`headroom[k]`: chunks `k..`), the
-/// headroom of [`LikelihoodGrid::sum_above`].
-pub(crate) fn suffix_sums(chunk_sums: &[u64], headroom: &mut [u64]) {
+impl LikelihoodGrid {
+    /// True when a return whose lowest cell under a group of rotations is `lo` may add to a
+    /// sum of the level above the top, or to one of the top level's under a rotation of the
+    /// group (its cell there in `lo..=lo + 2^depth`): `lo` in `−(2^(depth+1) − 1) − w..n + w`,
+    /// the cells of that level that may be non-zero less the window's offsets. Then the
+    /// lookups [`Self::lookup_at`] makes of `lo` and of every such cell stay inside the levels.
+    pub(crate) fn group_keeps(&self, lo: [i32; 2]) -> bool {
+        let w = self.window;
+        let low = 1 - (2 << self.depth()) - w;
+        (low..self.nx + w).contains(&lo[0]) && (low..self.ny + w).contains(&lo[1])
+    }
+
+    /// The lookup of a return at `cell` with `weight`, for a cell that [`Self::lookups`]
+    /// keeps or that is `lo..=lo + 2^depth` for an `lo` that [`Self::group_keeps`].
+    pub(crate) fn lookup_at(&self, [i, j]: [i32; 2], weight: u32) -> Lookup {
+        let shift = self.pad - self.window;
+        let (a, b) = ((i + shift) as usize, (j + shift) as usize);
+        Lookup {
+            index: (b * self.stride + a) as u32,
+            weight,
+        }
+    }
+}
+
+/// A source return ready for the sums of one rotation: see [`LikelihoodGrid::lookup`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Lookup {
+    /// Its cell's index in every level at the window's lowest offset.
+    index: u32,
+    /// Its weight in the score.
+    pub weight: u32,
+}
+
+/// Replaces each of `values` by the sum of it and those after it: from chunk sums, the
+/// headroom of [`LikelihoodGrid::sum_above`] (`headroom[k]`: chunks `k..`).
+pub(crate) fn suffix_sums(values: &mut [u64]) {
     let mut rest = 0;
-    for (h, &c) in headroom.iter_mut().zip(chunk_sums).rev() {
-        rest += c;
-        *h = rest;
+    for v in values.iter_mut().rev() {
+        rest += *v;
+        *v = rest;
     }
 }
 
 /// Cells read between two checks of a sum against its floor.
 pub(crate) const CHUNK: usize = 16;
+
+/// `q`'s coordinates in cells of side `1 / inv_res` from `origin`, whose floors are its cell.
+#[inline]
+fn cell_coordinates(q: &Point2<f64>, origin: Point2<f64>, inv_res: f64) -> [f64; 2] {
+    [(q.x - origin.x) * inv_res, (q.y - origin.y) * inv_res]
+}
+
+/// The floor of `f` (within `i32`'s range), without a call to libm's: truncated, less one
+/// below zero.
+#[inline]
+fn floor(f: f64) -> i32 {
+    let t = f as i32;
+    t - i32::from(f64::from(t) > f)
+}
 
 /// Weight units per metre of range.
 const WEIGHT_PER_M: f64 = 64.0;
@@ -351,23 +436,83 @@ pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>
 
 #[cfg(test)]
 mod tests {
-    use super::max_shifted;
+    use super::{max_ahead, LikelihoodGrid};
+    use crate::Scan;
+    use nalgebra::Vector2;
     use proptest::prelude::*;
 
     proptest! {
         /// The pooled array is the definition's, shifts longer than the array included.
         #[test]
-        fn max_shifted_is_the_max_of_the_array_and_its_shift(
+        fn max_ahead_is_the_max_of_the_array_and_its_shift(
             v in prop::collection::vec(any::<u8>(), 0..40),
             s in 0usize..50,
         ) {
-            let at = |k: isize| usize::try_from(k).ok().and_then(|k| v.get(k)).copied().unwrap_or(0);
-            let expected: Vec<u8> = (0..(v.len() + s) as isize)
-                .map(|a| at(a).max(at(a - s as isize)))
+            let expected: Vec<u8> = (0..v.len())
+                .map(|k| v[k].max(v.get(k + s).copied().unwrap_or(0)))
                 .collect();
-            let mut out = vec![7];
-            max_shifted(&mut out, &v, s);
-            prop_assert_eq!(&out[1..], &expected[..]);
+            prop_assert_eq!(max_ahead(&v, s), expected);
+        }
+
+        /// Every cell of every level, padding included, is the max of level 0's cells in its
+        /// block (0 outside level 0's `nx × ny`); a return's lookup reads that value at every
+        /// offset of the window, and a return without a lookup reads 0 at every level and
+        /// offset.
+        #[test]
+        fn levels_and_lookups_are_the_definition(
+            reference in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64), 1..20),
+            depth in 0u32..5,
+            window in 0i32..6,
+            resolution_m in 0.1..0.4f64,
+            cells in prop::collection::vec((-40i32..40, -40i32..40), 1..10),
+        ) {
+            let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
+            let scan = Scan::from_cartesian(&pts).unwrap();
+            let grid = LikelihoodGrid::new(&scan, resolution_m, 0.1, depth, window, u64::MAX)
+                .unwrap();
+            let (nx, ny) = (grid.nx, grid.ny);
+            let level0 = |i: i32, j: i32| {
+                if (0..nx).contains(&i) && (0..ny).contains(&j) {
+                    grid.value(0, [i, j])
+                } else {
+                    0
+                }
+            };
+            let pad = grid.pad;
+            for h in 0..=depth {
+                let block = 1 << h;
+                for j in -pad..grid.rows as i32 - pad {
+                    for i in -pad..grid.stride as i32 - pad {
+                        let expected = (0..block)
+                            .flat_map(|b| (0..block).map(move |a| (a, b)))
+                            .map(|(a, b)| level0(i + a, j + b))
+                            .max()
+                            .unwrap();
+                        prop_assert_eq!(grid.value(h, [i, j]), expected, "level {} cell {} {}", h, i, j);
+                    }
+                }
+            }
+            for (i, j) in cells {
+                let q = grid.origin + Vector2::new(f64::from(i) + 0.5, f64::from(j) + 0.5) * grid.resolution_m;
+                prop_assert_eq!(grid.cell_of(&q), [i, j]);
+                let mut lookups = Vec::new();
+                grid.lookups(std::iter::once((q, 3)), &mut lookups);
+                let lookup = lookups.first().copied();
+                for h in 0..=depth {
+                    for dy in -window..=window {
+                        for dx in -window..=window {
+                            let expected = 3 * u64::from(grid.value(h, [i + dx, j + dy]));
+                            let shift = grid.shift([dx, dy]);
+                            let mut chunk = [0];
+                            let sum = lookup.map_or(0, |l| {
+                                grid.sum_above(h, &[l], &[u64::MAX], shift, 0, &mut 0, &mut chunk)
+                                    .unwrap_or(0)
+                            });
+                            prop_assert_eq!(sum, expected, "level {} cell {} {} offset {} {}", h, i, j, dx, dy);
+                        }
+                    }
+                }
+            }
         }
     }
 }

@@ -364,6 +364,7 @@ impl GlobalMatcher {
             params.resolution_m,
             params.sigma_m,
             params.depth(),
+            params.window_cells(),
             params.max_grid_cells,
         )?;
         Ok(Self {

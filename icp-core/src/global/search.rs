@@ -12,7 +12,21 @@
 
 use nalgebra::{Point2, UnitComplex, Vector2};
 
-use super::grid::{suffix_sums, LikelihoodGrid, CHUNK, FULL_SCALE};
+use super::grid::{suffix_sums, LikelihoodGrid, Lookup, CHUNK, FULL_SCALE};
+
+/// Relative room on a group's box: far above a position's rounding (about 1e-16 relative).
+const ROUNDING_ROOM: f64 = 1e-9;
+
+/// Fills `headroom` with the most the chunks of `lookups` from each on can add: their
+/// weights at full scale.
+fn full_scale_headroom(lookups: &[Lookup], headroom: &mut Vec<u64>) {
+    headroom.clear();
+    headroom.extend(lookups.chunks(CHUNK).map(|chunk| {
+        let weight: u64 = chunk.iter().map(|l| u64::from(l.weight)).sum();
+        weight * u64::from(FULL_SCALE)
+    }));
+    suffix_sums(headroom);
+}
 
 /// A node of the search: a rotation candidate, a level and the block of offsets it covers.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,9 +60,21 @@ pub(crate) struct Best {
 /// Reused buffers of the search.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Buffers {
-    cells: Vec<[i32; 2]>,
-    /// The headroom of a top-level node: per chunk of points, the rest at full scale.
+    /// The lookups of every rotation's returns (those that may add to a sum), rotation
+    /// `r`'s at `starts[r]..starts[r + 1]`, made by [`Search::top_level`] for the descents.
+    lookups: Vec<Lookup>,
+    starts: Vec<usize>,
+    /// The headroom of a top-level node: per chunk of lookups, the rest at full scale.
     headroom: Vec<u64>,
+    /// A group of rotations' lookups, of the returns it keeps (see
+    /// [`Search::group_lookups`]).
+    group: Vec<Lookup>,
+    kept: Vec<u32>,
+    /// The group's chunk sums, `chunks` per block.
+    group_chunks: Vec<u64>,
+    /// The top-level blocks, and those a group may lift above the floor.
+    blocks: Vec<[i32; 2]>,
+    passed: Vec<usize>,
     top: Vec<Node>,
     /// The chunk sums of the top-level nodes, `chunks` per node in the order scored.
     top_chunks: Vec<u64>,
@@ -78,15 +104,22 @@ pub(crate) struct Search<'a> {
 }
 
 impl Search<'_> {
-    /// The cells of the source points rotated by candidate `rotation` and moved to the centre.
-    fn discretise(&self, rotation: usize, cells: &mut Vec<[i32; 2]>) {
+    /// The source points rotated by candidate `rotation` and moved to the centre.
+    fn moved(&self, rotation: usize) -> impl ExactSizeIterator<Item = Point2<f64>> + '_ {
         let r = UnitComplex::new(self.rotations[rotation]);
-        cells.clear();
-        cells.extend(
-            self.points
-                .iter()
-                .map(|p| self.grid.cell_of(&(r * p + self.centre))),
-        );
+        self.points.iter().map(move |p| r * p + self.centre)
+    }
+
+    /// Appends to `lookups` those of the returns at candidate `rotation` that may add to a
+    /// sum (see [`LikelihoodGrid::lookups`]), in the order of the points.
+    fn lookups(&self, rotation: usize, lookups: &mut Vec<Lookup>) {
+        let returns = self.moved(rotation).zip(self.weights.iter().copied());
+        self.grid.lookups(returns, lookups);
+    }
+
+    /// Rotation `rotation`'s lookups in `buffers` (made by [`Self::top_level`]).
+    fn of_rotation<'b>(lookups: &'b [Lookup], starts: &[usize], rotation: usize) -> &'b [Lookup] {
+        &lookups[starts[rotation]..starts[rotation + 1]]
     }
 
     /// The offsets of the level-`level` blocks starting at `origin` that lie in the window,
@@ -111,52 +144,205 @@ impl Search<'_> {
     /// Scores the top-level nodes of every rotation whose bounds exceed `floor` into
     /// `buffers`, sorted best first, and the headroom of the sums, that [`Self::above`] and
     /// [`Self::runner_up`] start from (with a floor no lower); returns the cells read.
+    ///
+    /// Above a floor, neighbouring rotations are bounded together first: over a group of
+    /// rotations along which no return moves by more than a top-level block, each return's
+    /// cells lie in a block of that size from its lowest one ([`Self::group_lookups`]), so the
+    /// level above the top, read there, bounds the return's top-level value under every
+    /// rotation of the group. A block none of them can lift above the floor is not scored
+    /// rotation by rotation; the others are, with the group's chunk sums as headroom. The
+    /// nodes are the same, with the same sums, in the same order, as scored one rotation at a
+    /// time (their chunks may differ: a group's rotations look up the returns the group
+    /// keeps).
     pub fn top_level(&self, buffers: &mut Buffers, floor: u64) -> u64 {
-        let top_level = self.grid.depth();
+        let grid = self.grid;
+        let top_level = grid.depth();
         let chunks = self.weights.len().div_ceil(CHUNK);
-        // The most the chunks from k on can add: their weights at full scale.
-        buffers.headroom.clear();
-        buffers.headroom.resize(chunks, 0);
-        let mut rest = 0;
-        let per_chunk = buffers.headroom.iter_mut().zip(self.weights.chunks(CHUNK));
-        for (h, chunk) in per_chunk.rev() {
-            rest += chunk.iter().map(|&w| u64::from(w)).sum::<u64>() * u64::from(FULL_SCALE);
-            *h = rest;
-        }
-        buffers.top.clear();
-        buffers.top_chunks.clear();
+        let Buffers {
+            lookups,
+            starts,
+            headroom,
+            top,
+            top_chunks,
+            parent_room,
+            group,
+            kept,
+            group_chunks,
+            blocks,
+            passed,
+            ..
+        } = buffers;
+        lookups.clear();
+        starts.clear();
+        starts.push(0);
+        top.clear();
+        top_chunks.clear();
         let w = self.window;
+        blocks.clear();
+        blocks.extend(self.blocks([-w, -w], top_level, [w, w]));
+        group_chunks.resize(blocks.len() * chunks, 0);
+        let span_rad = self.group_span_rad();
         let mut read = 0;
-        for rotation in 0..self.rotations.len() {
-            self.discretise(rotation, &mut buffers.cells);
-            for offset in self.blocks([-w, -w], top_level, [w, w]) {
-                let slot = buffers.top.len();
-                buffers.top_chunks.resize((slot + 1) * chunks, 0);
-                let above = self.grid.sum_above(
+        // Scores rotation `r`'s block `offset` (its lookups `mine`) against `room`.
+        let mut score =
+            |r: usize, offset: [i32; 2], mine: &[Lookup], room: &[u64], read: &mut u64| {
+                let slot = top.len();
+                top_chunks.resize((slot + 1) * chunks, 0);
+                let above = grid.sum_above(
                     top_level,
-                    &buffers.cells,
-                    self.weights,
-                    &buffers.headroom,
-                    offset,
+                    mine,
+                    room,
+                    grid.shift(offset),
                     floor,
-                    &mut read,
-                    &mut buffers.top_chunks[slot * chunks..],
+                    read,
+                    &mut top_chunks[slot * chunks..],
                 );
                 if let Some(sum) = above {
-                    buffers.top.push(Node {
-                        rotation: rotation as u32,
+                    top.push(Node {
+                        rotation: r as u32,
                         level: top_level,
                         offset,
                         sum,
                         slot: slot as u32,
                     });
                 }
+            };
+        let mut first = 0;
+        while first < self.rotations.len() {
+            // A group: rotations in increasing order within the span (so that every one of
+            // them lies between the first and the last).
+            let mut last = first;
+            while floor > 0
+                && last + 1 < self.rotations.len()
+                && self.rotations[last + 1] >= self.rotations[last]
+                && self.rotations[last + 1] - self.rotations[first] <= span_rad
+            {
+                last += 1;
+            }
+            if last > first && self.group_lookups(first, last, group, kept) {
+                full_scale_headroom(group, headroom);
+                passed.clear();
+                for (b, &offset) in blocks.iter().enumerate() {
+                    let above = grid.sum_above(
+                        top_level + 1,
+                        group,
+                        headroom,
+                        grid.shift(offset),
+                        floor,
+                        &mut read,
+                        &mut group_chunks[b * chunks..][..chunks],
+                    );
+                    if above.is_some() {
+                        passed.push(b);
+                    }
+                }
+                let used = group.len().div_ceil(CHUNK);
+                for r in first..=last {
+                    if !passed.is_empty() {
+                        // The returns the group keeps, at their cells under rotation r.
+                        let turn = UnitComplex::new(self.rotations[r]);
+                        lookups.extend(kept.iter().map(|&k| {
+                            let p = &self.points[k as usize];
+                            grid.lookup_at(
+                                grid.cell_of(&(turn * p + self.centre)),
+                                self.weights[k as usize],
+                            )
+                        }));
+                    }
+                    starts.push(lookups.len());
+                    let mine = Self::of_rotation(lookups, starts, r);
+                    for &b in passed.iter() {
+                        parent_room.clear();
+                        parent_room.extend_from_slice(&group_chunks[b * chunks..][..used]);
+                        suffix_sums(parent_room);
+                        score(r, blocks[b], mine, parent_room, &mut read);
+                    }
+                }
+            } else {
+                for r in first..=last {
+                    self.lookups(r, lookups);
+                    starts.push(lookups.len());
+                    let mine = Self::of_rotation(lookups, starts, r);
+                    full_scale_headroom(mine, headroom);
+                    for &offset in blocks.iter() {
+                        score(r, offset, mine, headroom, &mut read);
+                    }
+                }
+            }
+            first = last + 1;
+        }
+        top_chunks.truncate(top.len() * chunks);
+        // Best first, then in the order of the rotations and of the blocks (y, then x): the
+        // order of a stable sort of the nodes made rotation by rotation.
+        top.sort_unstable_by_key(|node| {
+            (
+                std::cmp::Reverse(node.sum),
+                node.rotation,
+                node.offset[1],
+                node.offset[0],
+            )
+        });
+        read
+    }
+
+    /// The widest span of rotations bounded together: along it the farthest return moves by
+    /// at most a top-level block less two cells (a cell either side for the arc and the
+    /// rounding) and bulges off its chord by at most a quarter cell. A group's bound holds
+    /// whatever the span (see [`Self::group_lookups`]); only its tightness depends on it.
+    fn group_span_rad(&self) -> f64 {
+        let reach_m = self
+            .points
+            .iter()
+            .fold(0.0f64, |m, p| m.max(p.coords.norm()));
+        let res = self.grid.resolution_m();
+        let block_cells = f64::from(1u32 << self.grid.depth());
+        if reach_m > 0.0 {
+            let along = (block_cells - 2.0).max(0.0) * res / reach_m;
+            let bulge = 2.0 * (1.0 - (0.25 * res / reach_m).min(1.0)).acos();
+            along.min(bulge)
+        } else {
+            0.0
+        }
+    }
+
+    /// The lookups of a group of rotations, candidates `first` to `last`: each return at its
+    /// lowest cell under them, those the grid keeps (their indices in `kept`); `false` (no
+    /// group) when a return's cells under them may span more than a top-level block.
+    ///
+    /// A return turning between two angles stays within the sagitta `|p| (1 − cos(Δ/2))` of
+    /// the chord between its two ends, so within their bounding box widened by that (and by
+    /// far more than any rounding); a cell is the floor of a position, monotone, so the
+    /// return's cell under each rotation of the group lies between the box's corners' cells.
+    fn group_lookups(
+        &self,
+        first: usize,
+        last: usize,
+        group: &mut Vec<Lookup>,
+        kept: &mut Vec<u32>,
+    ) -> bool {
+        let grid = self.grid;
+        let (a0, a1) = (self.rotations[first], self.rotations[last]);
+        let (r0, r1) = (UnitComplex::new(a0), UnitComplex::new(a1));
+        let sagitta_per_m = 1.0 - (0.5 * (a1 - a0)).cos();
+        let block_cells = 1i32 << grid.depth();
+        group.clear();
+        kept.clear();
+        for (k, (p, &weight)) in self.points.iter().zip(self.weights).enumerate() {
+            let (q0, q1) = (r0 * p + self.centre, r1 * p + self.centre);
+            let room_m = p.coords.norm() * sagitta_per_m
+                + ROUNDING_ROOM * (1.0 + q0.coords.norm().max(q1.coords.norm()));
+            let low = Point2::new(q0.x.min(q1.x) - room_m, q0.y.min(q1.y) - room_m);
+            let high = Point2::new(q0.x.max(q1.x) + room_m, q0.y.max(q1.y) + room_m);
+            let (cl, ch) = (grid.cell_of(&low), grid.cell_of(&high));
+            if !(0..2).all(|a| (0..=block_cells).contains(&(ch[a] - cl[a]))) {
+                return false;
+            }
+            if grid.group_keeps(cl) {
+                group.push(grid.lookup_at(cl, weight));
+                kept.push(k as u32);
             }
         }
-        buffers.top_chunks.truncate(buffers.top.len() * chunks);
-        // Best first; the sort is stable, so ties keep their generation order.
-        buffers.top.sort_by_key(|node| std::cmp::Reverse(node.sum));
-        read
+        true
     }
 
     /// The best pose whose sum exceeds `floor` (otherwise `rotation: None`, `sum: floor`),
@@ -201,7 +387,8 @@ impl Search<'_> {
     /// outside its offsets.
     fn descend(&self, buffers: &mut Buffers, floor: u64, exclusion: Option<&Exclusion>) -> Best {
         let Buffers {
-            cells,
+            lookups,
+            starts,
             top,
             top_chunks,
             child_chunks,
@@ -213,7 +400,6 @@ impl Search<'_> {
         let grid = self.grid;
         let chunks = self.weights.len().div_ceil(CHUNK);
         child_chunks.resize(grid.depth() as usize * 4 * chunks, 0);
-        parent_room.resize(chunks, 0);
         let excluded = |node: &Node| exclusion.is_some_and(|e| e.covers(node));
         let elsewhere = |node: &Node| exclusion.is_some_and(|e| e.rotation != node.rotation);
         let mut best = Best {
@@ -229,7 +415,8 @@ impl Search<'_> {
             if elsewhere(root) {
                 continue;
             }
-            self.discretise(root.rotation as usize, cells);
+            let mine = Self::of_rotation(lookups, starts, root.rotation as usize);
+            let used = mine.len().div_ceil(CHUNK);
             stack.clear();
             stack.push(*root);
             while let Some(node) = stack.pop() {
@@ -248,21 +435,22 @@ impl Search<'_> {
                 // child's, a headroom much tighter than full scale.
                 let own = |l: u32, slot: u32| (l as usize * 4 + slot as usize) * chunks;
                 let parent = if node.level == grid.depth() {
-                    &top_chunks[node.slot as usize * chunks..][..chunks]
+                    &top_chunks[node.slot as usize * chunks..][..used]
                 } else {
-                    &child_chunks[own(node.level, node.slot)..][..chunks]
+                    &child_chunks[own(node.level, node.slot)..][..used]
                 };
-                suffix_sums(parent, parent_room);
+                parent_room.clear();
+                parent_room.extend_from_slice(parent);
+                suffix_sums(parent_room);
                 let half = 1i32 << level;
                 let last = [node.offset[0] + half, node.offset[1] + half];
                 children.clear();
                 for (slot, offset) in (0..).zip(self.blocks(node.offset, level, last)) {
                     let above = grid.sum_above(
                         level,
-                        cells,
-                        self.weights,
+                        mine,
                         parent_room,
-                        offset,
+                        grid.shift(offset),
                         best.sum,
                         &mut best.lookups,
                         &mut child_chunks[own(level, slot)..][..chunks],
@@ -322,7 +510,6 @@ impl Search<'_> {
     /// The best pose by scoring every offset of every rotation at level 0: the oracle the
     /// branch and bound must equal.
     pub fn brute_force(&self) -> Best {
-        let mut cells = Vec::new();
         let mut best = Best {
             rotation: None,
             offset: [0, 0],
@@ -331,7 +518,10 @@ impl Search<'_> {
         };
         let w = self.window;
         for rotation in 0..self.rotations.len() {
-            self.discretise(rotation, &mut cells);
+            let cells: Vec<[i32; 2]> = self
+                .moved(rotation)
+                .map(|q| self.grid.cell_of(&q))
+                .collect();
             for offset in self.blocks([-w, -w], 0, [w, w]) {
                 let sum = self.grid.sum(0, &cells, self.weights, offset);
                 best.lookups += cells.len() as u64;
@@ -357,8 +547,10 @@ mod tests {
 
     /// The level-0 sum of one pose of `search`.
     fn sum_at(search: &Search<'_>, rotation: usize, offset: [i32; 2]) -> u64 {
-        let mut cells = Vec::new();
-        search.discretise(rotation, &mut cells);
+        let cells: Vec<[i32; 2]> = search
+            .moved(rotation)
+            .map(|q| search.grid.cell_of(&q))
+            .collect();
         search.grid.sum(0, &cells, search.weights, offset)
     }
 
@@ -373,6 +565,7 @@ mod tests {
             reference in prop::collection::vec((-3.0..3.0f64, -3.0..3.0f64), 1..60),
             source in prop::collection::vec((-3.0..3.0f64, -3.0..3.0f64, 1u32..3000), 1..40),
             rotations in prop::collection::vec(-3.2..3.2f64, 1..5),
+            lattice in prop::option::of((0.001..0.05f64, 2usize..40)),
             window in 0i32..10,
             depth in 0u32..6,
             resolution_m in 0.05..0.3f64,
@@ -385,11 +578,16 @@ mod tests {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
             let grid =
-                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, u64::MAX)
+                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, window, u64::MAX)
                     .unwrap();
             let points: Vec<Point2<f64>> =
                 source.iter().map(|&(x, y, _)| Point2::new(x, y)).collect();
             let weights: Vec<u32> = source.iter().map(|&(_, _, w)| w).collect();
+            // Random rotations, or a lattice as the candidates are (groups of neighbours).
+            let rotations: Vec<f64> = match lattice {
+                Some((step, n)) => (0..n).map(|k| rotations[0] + k as f64 * step).collect(),
+                None => rotations,
+            };
             let search = Search {
                 grid: &grid,
                 points: &points,
@@ -417,7 +615,29 @@ mod tests {
             } else {
                 prop_assert_eq!((above.rotation, above.sum), (None, floor));
             }
-            // The runner-up at the best rotation, away from the best offset.
+            // Scored above the floor (neighbouring rotations bounded together): the nodes of
+            // the whole top level that exceed it, in the same order, and the same descent.
+            let nodes = |buffers: &Buffers| -> Vec<(u32, [i32; 2], u64)> {
+                buffers
+                    .top
+                    .iter()
+                    .filter(|n| n.sum > floor)
+                    .map(|n| (n.rotation, n.offset, n.sum))
+                    .collect()
+            };
+            search.top_level(&mut buffers, 0);
+            let whole = nodes(&buffers);
+            search.top_level(&mut buffers, floor);
+            prop_assert_eq!(nodes(&buffers), whole);
+            prop_assert!(buffers.top.iter().all(|n| n.sum > floor));
+            let grouped = search.above(&mut buffers, floor);
+            prop_assert_eq!(
+                (grouped.rotation, grouped.offset, grouped.sum),
+                (above.rotation, above.offset, above.sum)
+            );
+            // The runner-up at the best rotation, away from the best offset (from the whole
+            // top level again).
+            search.top_level(&mut buffers, 0);
             let floor = (ratio * bnb.sum as f64) as u64;
             let runner_up = search.runner_up(&mut buffers, &bnb, floor, separation);
             let oracle = bnb.rotation.and_then(|r| {
@@ -452,7 +672,7 @@ mod tests {
         };
         let pts: Vec<[f64; 2]> = (0..240).map(wall).collect();
         let scan = Scan::from_cartesian(&pts).unwrap();
-        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, u64::MAX).unwrap();
+        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, 20, u64::MAX).unwrap();
         let points: Vec<Point2<f64>> = scan
             .returns()
             .iter()
