@@ -71,34 +71,30 @@ impl OrientationHistogram {
     }
 
     /// The circular cross-correlation `c(k) = Σ_b self[b] · reference[b + k]`, summed in
-    /// increasing `b`. Empty bins of `self` add +0.0 terms, which change no sum that has a
-    /// positive term: only the occupied ones are summed, in the same order (a sum of +0.0
-    /// terms alone may come out as −0.0, which compares as 0).
+    /// increasing `b`. Empty bins of either histogram add +0.0 terms, which change no sum
+    /// that has a positive term: only the pairs of occupied bins are summed, each `c(k)`'s
+    /// in increasing `b` as the definition's (a sum of +0.0 terms alone may come out as
+    /// −0.0, which compares as 0).
     fn correlation(&self, reference: &Self) -> Vec<f64> {
         let bins = self.bins();
-        let occupied: Vec<(usize, f64)> = self
-            .weights
-            .iter()
-            .enumerate()
-            .filter(|&(_, &w)| w != 0.0)
-            .map(|(b, &w)| (b, w))
-            .collect();
-        (0..bins)
-            .map(|k| {
-                occupied
-                    .iter()
-                    .map(|&(b, w)| {
-                        let shifted = b + k;
-                        let r = if shifted < bins {
-                            shifted
-                        } else {
-                            shifted - bins
-                        };
-                        w * reference.weights[r]
-                    })
-                    .sum()
-            })
-            .collect()
+        let occupied = |h: &Self| -> Vec<(usize, f64)> {
+            h.weights
+                .iter()
+                .enumerate()
+                .filter(|&(_, &w)| w != 0.0)
+                .map(|(b, &w)| (b, w))
+                .collect()
+        };
+        let (mine, theirs) = (occupied(self), occupied(reference));
+        // The empty sum, as the definition's `Iterator::sum` starts it.
+        let mut correlation = vec![std::iter::empty::<f64>().sum::<f64>(); bins];
+        for &(b, w) in &mine {
+            for &(r, v) in &theirs {
+                let k = if r >= b { r - b } else { r + bins - b };
+                correlation[k] += w * v;
+            }
+        }
+        correlation
     }
 }
 
@@ -119,7 +115,7 @@ mod tests {
                 weights: pairs.iter().map(|&(s, _, z)| if z == 0 { 0.0 } else { s }).collect(),
             };
             let reference = OrientationHistogram {
-                weights: pairs.iter().map(|&(_, r, _)| r).collect(),
+                weights: pairs.iter().map(|&(_, r, z)| if z == 1 { 0.0 } else { r }).collect(),
             };
             let bins = source.bins();
             let fast = source.correlation(&reference);
