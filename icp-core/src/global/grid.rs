@@ -53,8 +53,9 @@ fn max_ahead(v: &[u8], s: usize) -> Vec<u8> {
 /// offset of the translation window stays inside it: cell `(i, j)` is at index
 /// `(j + pad) · stride + i + pad` of each level, for `i` in `−pad..stride − pad` and `j` in
 /// `−pad..rows − pad`, with `pad = 2^(depth + 1) − 1 + 2 · window` (the level above the top
-/// included) and `2 · window + 2^depth` more cells past the far side of level 0. A return is looked up by its index at the window's lowest offset plus
-/// the offset's [`Self::shift`] (see [`Self::index_of`]): no bounds test per axis.
+/// included) and `2 · window + 2^depth` more cells past the far side of level 0. A return is
+/// looked up by its index at the window's lowest offset plus the offset's shift (`shift`, see
+/// `lookups`): no bounds test per axis.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LikelihoodGrid {
     /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself. One level

@@ -9,6 +9,11 @@
 //! no better than the best leaf found so far. The result is the exact maximum of the level-0
 //! sum over the discrete search space (rotations × offsets), the first one found when several
 //! tie.
+//!
+//! Above a floor (a check's bar), the top-level nodes of neighbouring rotations are first
+//! bounded together, one pooled level above the top over a group of rotations along which no
+//! return moves by more than a top-level block ([`Search::top_level`]): the nodes kept are
+//! the same, only the ones no rotation of a group can lift above the floor are not scored.
 
 use nalgebra::{Point2, UnitComplex, Vector2};
 
