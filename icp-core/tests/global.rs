@@ -1,11 +1,14 @@
 //! The global initial-guess search: large motions found in both rotation modes, degenerate
 //! inputs, parameter errors and determinism.
 
+mod common;
+
+use common::{seen_from, Owned};
 use icp_core::error::ScanRole;
 use icp_core::global::{
     score_at, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode,
 };
-use icp_core::{ConfigError, IcpError, Prepared, Scan, SurfaceParams, Surfaces};
+use icp_core::{ConfigError, IcpError, Prepared, Scan};
 use nalgebra::{Isometry2, Point2, Vector2};
 
 /// The walls of an L-shaped room with a pillar, sampled every 5 cm from `phase` metres along
@@ -40,36 +43,6 @@ fn room(phase: f64) -> Vec<Point2<f64>> {
         }
     }
     points
-}
-
-/// A scan of `points` (reference frame) seen from `t_ref_src`: the points in the source frame.
-fn seen_from(points: &[Point2<f64>], t_ref_src: &Isometry2<f64>) -> Scan {
-    let inv = t_ref_src.inverse();
-    let xy: Vec<[f64; 2]> = points
-        .iter()
-        .map(|p| {
-            let q = inv * p;
-            [q.x, q.y]
-        })
-        .collect();
-    Scan::from_cartesian(&xy).unwrap()
-}
-
-/// A scan with its surface estimates.
-struct Owned {
-    scan: Scan,
-    surfaces: Surfaces,
-}
-
-impl Owned {
-    fn new(scan: Scan) -> Self {
-        let surfaces = Surfaces::estimate(&scan, &SurfaceParams::default());
-        Self { scan, surfaces }
-    }
-
-    fn prepared(&self) -> Prepared<'_> {
-        Prepared::new(&self.scan, &self.surfaces)
-    }
 }
 
 fn search(

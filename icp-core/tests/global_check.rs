@@ -4,30 +4,14 @@
 //! the bar, and otherwise with a bound the full search's best does not exceed and that does
 //! not clear; so any decision taken from the best pose is the same.
 
+mod common;
+
+use common::{seen_from, Owned};
 use icp_core::global::{
     score_at, Above, GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode,
 };
-use icp_core::{Prepared, Scan, SurfaceParams, Surfaces};
 use nalgebra::{Isometry2, Point2, Vector2};
 use proptest::prelude::*;
-
-/// A scan with its surface estimates.
-struct Owned {
-    scan: Scan,
-    surfaces: Surfaces,
-}
-
-impl Owned {
-    fn new(points: &[[f64; 2]]) -> Self {
-        let scan = Scan::from_cartesian(points).unwrap();
-        let surfaces = Surfaces::estimate(&scan, &SurfaceParams::default());
-        Self { scan, surfaces }
-    }
-
-    fn prepared(&self) -> Prepared<'_> {
-        Prepared::new(&self.scan, &self.surfaces)
-    }
-}
 
 /// Walls through `corners` (a closed polyline), sampled every `step_m` from `phase_m`.
 fn walls(corners: &[(f64, f64)], step_m: f64, phase_m: f64) -> Vec<Point2<f64>> {
@@ -43,18 +27,6 @@ fn walls(corners: &[(f64, f64)], step_m: f64, phase_m: f64) -> Vec<Point2<f64>> 
         }
     }
     points
-}
-
-/// `points` (reference frame) as seen from `t_ref_src`.
-fn seen_from(points: &[Point2<f64>], t_ref_src: &Isometry2<f64>) -> Vec<[f64; 2]> {
-    let inv = t_ref_src.inverse();
-    points
-        .iter()
-        .map(|p| {
-            let q = inv * p;
-            [q.x, q.y]
-        })
-        .collect()
 }
 
 /// The suspect rule of the evaluation's check: a clearly better pose far away.
@@ -89,8 +61,8 @@ proptest! {
         let truth = Isometry2::new(Vector2::new(motion.0, motion.1), motion.2.to_radians());
         let scene = walls(&corners, 0.05, 0.0);
         prop_assume!(scene.len() >= 10);
-        let reference = Owned::new(&seen_from(&scene, &Isometry2::identity()));
-        let source = Owned::new(&seen_from(&walls(&corners, 0.05, 0.02), &truth));
+        let reference = Owned::new(seen_from(&scene, &Isometry2::identity()));
+        let source = Owned::new(seen_from(&walls(&corners, 0.05, 0.02), &truth));
         let params = GlobalParams {
             rotation: if full_rotations { RotationMode::Full } else { RotationMode::Histogram },
             max_rotation_deg: 60.0,
