@@ -9,6 +9,8 @@ use icp_core::Covariance;
 use nalgebra::{Isometry2, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::run::modes;
+
 /// Where each registration's covariance comes from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -61,11 +63,7 @@ pub const MODES: [(CovarianceMode, &str, &str); 5] = [
 impl CovarianceMode {
     /// Its name on the command line and in the reports.
     pub fn name(self) -> &'static str {
-        MODES
-            .iter()
-            .find(|m| m.0 == self)
-            .map(|m| m.1)
-            .expect("every mode is registered")
+        modes::name_of(&MODES, &self)
     }
 
     /// Whether it is built on the extended covariance: it takes each registration's grouped
@@ -108,14 +106,10 @@ impl FromStr for CovarianceMode {
     type Err = UnknownMode;
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        MODES
-            .iter()
-            .find(|m| m.1 == s)
-            .map(|m| m.0)
-            .ok_or_else(|| UnknownMode {
-                given: s.to_owned(),
-                known: MODES.map(|m| m.1).join(", "),
-            })
+        modes::named(&MODES, s, |name, given| name == given).ok_or_else(|| UnknownMode {
+            given: s.to_owned(),
+            known: modes::names(&MODES),
+        })
     }
 }
 

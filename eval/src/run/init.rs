@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::data;
 use crate::error::InitError;
+use crate::run::modes;
 
 /// One way of choosing a registration's start.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -80,11 +81,7 @@ impl InitMode {
 
     /// Its name on the command line and in the reports.
     pub fn name(self) -> &'static str {
-        MODES
-            .iter()
-            .find(|m| m.0 == self)
-            .map(|m| m.1)
-            .expect("every mode is registered")
+        modes::name_of(&MODES, &self)
     }
 }
 
@@ -116,14 +113,12 @@ impl FromStr for InitChain {
             if part.is_empty() {
                 return Err(InitError::Empty(s.to_owned()));
             }
-            let mode = MODES
-                .iter()
-                .find(|m| m.1.eq_ignore_ascii_case(part))
-                .map(|m| m.0)
-                .ok_or_else(|| InitError::Unknown {
+            let mode = modes::named(&MODES, part, str::eq_ignore_ascii_case).ok_or_else(|| {
+                InitError::Unknown {
                     got: part.to_owned(),
-                    known: MODES.map(|m| m.1).join(", "),
-                })?;
+                    known: modes::names(&MODES),
+                }
+            })?;
             if modes.contains(&mode) {
                 return Err(InitError::Repeated(mode.name()));
             }

@@ -9,6 +9,7 @@ pub mod estimates;
 pub mod extended;
 pub mod init;
 pub mod lags;
+pub mod modes;
 pub mod motion;
 pub mod options;
 pub mod pair_search;
