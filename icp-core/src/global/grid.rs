@@ -257,17 +257,12 @@ impl LikelihoodGrid {
         // in none; then `c − w + pad ≥ 0` and `c + w + pad < stride` (or `rows`).
         let low = f64::from(-top - w);
         let (high_x, high_y) = (f64::from(self.nx + w), f64::from(self.ny + w));
-        let (stride, shift) = (self.stride, self.pad - w);
         let (origin, inv_res) = (self.origin, 1.0 / self.resolution_m);
         out.reserve(returns.len());
         for (q, weight) in returns {
             let [fx, fy] = cell_coordinates(&q, origin, inv_res);
             if (low..high_x).contains(&fx) && (low..high_y).contains(&fy) {
-                let (i, j) = (floor(fx) + shift, floor(fy) + shift);
-                out.push(Lookup {
-                    index: (j as usize * stride + i as usize) as u32,
-                    weight,
-                });
+                out.push(self.lookup_at([floor(fx), floor(fy)], weight));
             }
         }
     }
@@ -352,6 +347,7 @@ impl LikelihoodGrid {
 
     /// The lookup of a return at `cell` with `weight`, for a cell that [`Self::lookups`]
     /// keeps or that is `lo..=lo + 2^depth` for an `lo` that [`Self::group_keeps`].
+    #[inline]
     pub(crate) fn lookup_at(&self, [i, j]: [i32; 2], weight: u32) -> Lookup {
         let shift = self.pad - self.window;
         let (a, b) = ((i + shift) as usize, (j + shift) as usize);
@@ -362,7 +358,7 @@ impl LikelihoodGrid {
     }
 }
 
-/// A source return ready for the sums of one rotation: see [`LikelihoodGrid::lookup`].
+/// A source return ready for the sums of one rotation: see [`LikelihoodGrid::lookups`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Lookup {
     /// Its cell's index in every level at the window's lowest offset.

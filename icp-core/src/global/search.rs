@@ -169,7 +169,6 @@ impl Search<'_> {
             headroom,
             top,
             top_chunks,
-            parent_room,
             group,
             kept,
             group_chunks,
@@ -241,7 +240,11 @@ impl Search<'_> {
                         passed.push(b);
                     }
                 }
+                // A passing block's chunk sums become its members' headroom, once.
                 let used = group.len().div_ceil(CHUNK);
+                for &b in passed.iter() {
+                    suffix_sums(&mut group_chunks[b * chunks..][..used]);
+                }
                 for r in first..=last {
                     if !passed.is_empty() {
                         // The returns the group keeps, at their cells under rotation r.
@@ -257,10 +260,8 @@ impl Search<'_> {
                     starts.push(lookups.len());
                     let mine = Self::of_rotation(lookups, starts, r);
                     for &b in passed.iter() {
-                        parent_room.clear();
-                        parent_room.extend_from_slice(&group_chunks[b * chunks..][..used]);
-                        suffix_sums(parent_room);
-                        score(r, blocks[b], mine, parent_room, &mut read);
+                        let room = &group_chunks[b * chunks..][..used];
+                        score(r, blocks[b], mine, room, &mut read);
                     }
                 }
             } else {
