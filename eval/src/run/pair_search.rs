@@ -13,7 +13,8 @@ use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use icp_core::global::{
-    score_at, Above, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, SourceSearch,
+    score_at, Above, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool,
+    SourceSearch,
 };
 use icp_core::{IcpError, Prepared, Registration, Scan};
 use nalgebra::Isometry2;
@@ -31,16 +32,17 @@ pub(crate) struct Searched<'w> {
 }
 
 impl<'w> Searched<'w> {
-    /// The grid of `reference` and `source` prepared around the identity in `workspace`, with
-    /// the best pose when `best` (a start needs it).
+    /// The grid of `reference` (in storage from `pool`) and `source` prepared around the
+    /// identity in `workspace`, with the best pose when `best` (a start needs it).
     pub fn new(
         reference: Prepared<'_>,
         source: Prepared<'_>,
         params: &GlobalParams,
         best: bool,
         workspace: &'w mut GlobalWorkspace,
+        pool: &mut GridPool,
     ) -> Result<Self, IcpError> {
-        let matcher = GlobalMatcher::new(reference, params)?;
+        let matcher = GlobalMatcher::new_in(reference, params, pool)?;
         let mut prepared = matcher.prepare(workspace, source, Isometry2::identity())?;
         let guess = best.then(|| matcher.best(&mut prepared));
         Ok(Self {
@@ -49,6 +51,11 @@ impl<'w> Searched<'w> {
             guess,
             check_us: Mutex::new(0.0),
         })
+    }
+
+    /// Gives the grid's storage back to `pool`, for the next pair's.
+    pub fn recycle(self, pool: &mut GridPool) {
+        self.matcher.recycle(pool);
     }
 
     /// The best pose, when it was asked for.

@@ -12,7 +12,7 @@ use std::ops::Range;
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
-use icp_core::global::{GlobalGuess, GlobalParams, GlobalWorkspace};
+use icp_core::global::{GlobalGuess, GlobalParams, GlobalWorkspace, GridPool};
 use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
 use indicatif::ProgressBar;
 use rand::seq::SliceRandom;
@@ -255,11 +255,12 @@ struct BlockJob<'a> {
 
 impl BlockJob<'_> {
     /// The global search of `pair` (surfaces of the default parameters, which the runner
-    /// always prepares when searches are made).
+    /// always prepares when searches are made), its grid in storage from `pool`.
     fn search<'w>(
         &self,
         pair: ScanPair,
         workspace: &'w mut GlobalWorkspace,
+        pool: &mut GridPool,
     ) -> (Option<Searched<'w>>, PairSearch) {
         let params = SurfaceParams::default();
         let prepared_scan =
@@ -271,6 +272,7 @@ impl BlockJob<'_> {
             self.plan.global,
             self.plan.chain.global(),
             workspace,
+            pool,
         );
         let time_us = clock.elapsed().as_secs_f64() * 1e6;
         match searched {
@@ -421,12 +423,14 @@ fn run_blocks(
     let mut per_variant: Vec<Vec<PairRun>> = (0..methods.len())
         .map(|_| Vec::with_capacity(pairs.len()))
         .collect();
-    // Where starts chain pairs: the searches of the pairs in flight, and each variant's
-    // registration buffers.
+    // Where starts chain pairs: the searches of the pairs in flight and their grids' storage,
+    // and each variant's registration buffers.
     let mut chained: Vec<GlobalWorkspace> = Vec::new();
+    let mut chained_pools: Vec<GridPool> = Vec::new();
     let mut variant_workspaces: Vec<Workspace> = Vec::new();
     if plan.chain.sequential() {
         chained.resize_with(CHAINED_PAIRS, GlobalWorkspace::default);
+        chained_pools.resize_with(CHAINED_PAIRS, GridPool::default);
         variant_workspaces.resize_with(n, Workspace::default);
     }
     for (b, block) in pairs.chunks(block_pairs).enumerate() {
@@ -458,11 +462,12 @@ fn run_blocks(
                 let built: Vec<(Option<Searched>, Option<PairSearch>)> = part
                     .par_iter()
                     .zip(chained.par_iter_mut())
-                    .map(|(&pair, gws)| {
+                    .zip(chained_pools.par_iter_mut())
+                    .map(|((&pair, gws), pool)| {
                         if !searches {
                             return (None, None);
                         }
-                        let (searched, info) = job.search(pair, gws);
+                        let (searched, info) = job.search(pair, gws, pool);
                         (searched, Some(info))
                     })
                     .collect();
@@ -509,11 +514,14 @@ fn run_blocks(
                         variant.push(run);
                     }
                 }
-                for (searched, info) in built {
+                for ((searched, info), pool) in built.into_iter().zip(&mut chained_pools) {
                     pair_searches.extend(info.map(|info| PairSearch {
                         time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
                         ..info
                     }));
+                    if let Some(searched) = searched {
+                        searched.recycle(pool);
+                    }
                 }
             }
             continue;
@@ -524,10 +532,16 @@ fn run_blocks(
             // One workspace per rayon job: buffers are reused across the pairs a thread runs
             // (results never depend on what a workspace held before).
             .map_init(
-                || (Workspace::default(), GlobalWorkspace::default()),
-                |(workspace, gws), (i, &pair)| {
+                || {
+                    (
+                        Workspace::default(),
+                        GlobalWorkspace::default(),
+                        GridPool::default(),
+                    )
+                },
+                |(workspace, gws, pool), (i, &pair)| {
                     let (searched, search) = if searches {
-                        let (s, info) = job.search(pair, gws);
+                        let (s, info) = job.search(pair, gws, pool);
                         (s, Some(info))
                     } else {
                         (None, None)
@@ -560,6 +574,9 @@ fn run_blocks(
                         time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
                         ..info
                     });
+                    if let Some(searched) = searched {
+                        searched.recycle(pool);
+                    }
                     (runs, search)
                 },
             )

@@ -29,22 +29,48 @@ const MAX_LEVEL_CELLS: f64 = (1u64 << 32) as f64;
 /// and far from `i32` overflow.
 const FAR_CELL: f64 = (1 << 28) as f64;
 
-/// The level above `level` (which pools blocks of `s` cells, the result `2s`) in the layout
-/// shared by every level (rows of `stride` cells): the cell at index `k` is the max of the
-/// cells at `k`, `k + s`, `k + s·stride` and `k + s·stride + s`, pooled along x then along
-/// y. An index past the end reads 0, and one past a row's end reads the next row's start,
+/// Writes into `out` the level above `level` (which pools blocks of `s` cells, the result
+/// `2s`) in the layout shared by every level (rows of `stride` cells): the cell at index `k`
+/// is the max of the cells at `k`, `k + s`, `k + s·stride` and `k + s·stride + s`, in one
+/// pass. An index past the end reads 0, and one past a row's end reads the next row's start,
 /// which is padding (0) at every level but the top one (see [`LikelihoodGrid::new`]).
-fn pooled(level: &[u8], s: usize, stride: usize) -> Vec<u8> {
-    max_ahead(&max_ahead(level, s), s * stride)
+fn pool_into(level: &[u8], s: usize, stride: usize, out: &mut Vec<u8>) {
+    let n = level.len();
+    let ahead = [0, s, s * stride, s * stride + s];
+    // Cells whose four sources are all inside, then the last ones, whose far sources read 0.
+    let inside = n.saturating_sub(ahead[3]);
+    out.clear();
+    out.reserve(n);
+    let from = |a: usize| &level[a.min(n)..];
+    out.extend(
+        level[..inside]
+            .iter()
+            .zip(from(ahead[1]))
+            .zip(from(ahead[2]))
+            .zip(from(ahead[3]))
+            .map(|(((&a, &b), &c), &d)| a.max(b).max(c.max(d))),
+    );
+    out.extend((inside..n).map(|k| {
+        ahead
+            .iter()
+            .filter_map(|&a| level.get(k + a))
+            .fold(0, |m, &v| m.max(v))
+    }));
 }
 
-/// `max(v[k], v[k + s])` for every `k` of `v`, a missing `v[k + s]` being 0.
-fn max_ahead(v: &[u8], s: usize) -> Vec<u8> {
-    let s = s.min(v.len());
-    let mut out = Vec::with_capacity(v.len());
-    out.extend(v.iter().zip(&v[s..]).map(|(&a, &b)| a.max(b)));
-    out.extend_from_slice(&v[v.len() - s..]);
-    out
+/// The cells of likelihood grids' levels, handed from one grid to the next (see
+/// [`LikelihoodGrid::new`] and [`LikelihoodGrid::recycle`]): a run's grids then reuse their
+/// memory, where a freshly allocated level costs a page fault per page on first write.
+#[derive(Clone, Debug, Default)]
+pub struct GridPool {
+    levels: Vec<Vec<u8>>,
+}
+
+impl GridPool {
+    /// A level's storage, empty (with the capacity it had).
+    fn take(&mut self) -> Vec<u8> {
+        self.levels.pop().unwrap_or_default()
+    }
 }
 
 /// The likelihood grid of one reference scan with its max-pooled pyramid (see the module doc).
@@ -83,8 +109,12 @@ impl LikelihoodGrid {
     /// `sigma_m`, `depth` max-pooled levels above level 0, padded for offsets of up to
     /// `window` cells (parameters assumed valid: see [`super::GlobalParams::validate`]).
     ///
+    /// The levels' storage is taken from `pool` (see [`Self::recycle`]): what it held before
+    /// does not matter.
+    ///
     /// `Err(TooFewPoints)` for a scan without returns, `Err(GlobalSearchTooLarge)` when the levels
     /// together, padding included, would hold more than `max_cells` cells.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn new(
         reference: &Scan,
         resolution_m: f64,
@@ -92,6 +122,7 @@ impl LikelihoodGrid {
         depth: u32,
         window: i32,
         max_cells: u64,
+        pool: &mut GridPool,
     ) -> Result<Self, IcpError> {
         let points: Vec<Point2<f64>> = reference
             .returns()
@@ -145,7 +176,9 @@ impl LikelihoodGrid {
         }
         let (nx, ny) = (fx as usize, fy as usize);
         let (stride, rows, pad) = (padded(fx) as usize, padded(fy) as usize, pad as usize);
-        let mut data = vec![0u8; stride * rows];
+        let mut data = pool.take();
+        data.clear();
+        data.resize(stride * rows, 0);
         let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
         let reach_sq = reach_m * reach_m;
         let (below, quantised_exp) = (&*EXPONENT_BELOW, &*QUANTISED_EXP);
@@ -174,7 +207,8 @@ impl LikelihoodGrid {
         }
         let mut levels = vec![data];
         for h in 1..=depth + 1 {
-            let next = pooled(&levels[h as usize - 1], 1 << (h - 1), stride);
+            let mut next = pool.take();
+            pool_into(&levels[h as usize - 1], 1 << (h - 1), stride, &mut next);
             levels.push(next);
         }
         Ok(Self {
@@ -189,6 +223,11 @@ impl LikelihoodGrid {
             resolution_m,
             sigma_m,
         })
+    }
+
+    /// Gives the levels' storage to `pool`, for the next grid.
+    pub(crate) fn recycle(self, pool: &mut GridPool) {
+        pool.levels.extend(self.levels);
     }
 
     /// Side of a cell, metres.
@@ -433,22 +472,28 @@ pub fn score_at(grid: &LikelihoodGrid, source: &Scan, t_ref_src: &Isometry2<f64>
 
 #[cfg(test)]
 mod tests {
-    use super::{max_ahead, LikelihoodGrid};
+    use super::{pool_into, GridPool, LikelihoodGrid};
     use crate::Scan;
     use nalgebra::Vector2;
     use proptest::prelude::*;
 
     proptest! {
-        /// The pooled array is the definition's, shifts longer than the array included.
+        /// The pooled array is the definition's (an index past the end reads 0), shifts
+        /// longer than the array included, whatever the output held before.
         #[test]
-        fn max_ahead_is_the_max_of_the_array_and_its_shift(
-            v in prop::collection::vec(any::<u8>(), 0..40),
-            s in 0usize..50,
+        fn pooling_is_the_max_of_the_four_cells_ahead(
+            v in prop::collection::vec(any::<u8>(), 0..60),
+            s in 0usize..12,
+            stride in 1usize..12,
+            held in prop::collection::vec(any::<u8>(), 0..80),
         ) {
+            let at = |k: usize| v.get(k).copied().unwrap_or(0);
             let expected: Vec<u8> = (0..v.len())
-                .map(|k| v[k].max(v.get(k + s).copied().unwrap_or(0)))
+                .map(|k| at(k).max(at(k + s)).max(at(k + s * stride)).max(at(k + s * stride + s)))
                 .collect();
-            prop_assert_eq!(max_ahead(&v, s), expected);
+            let mut out = held;
+            pool_into(&v, s, stride, &mut out);
+            prop_assert_eq!(out, expected);
         }
 
         /// Every cell of every level, padding included, is the max of level 0's cells in its
@@ -462,10 +507,17 @@ mod tests {
             window in 0i32..6,
             resolution_m in 0.1..0.4f64,
             cells in prop::collection::vec((-40i32..40, -40i32..40), 1..10),
+            other_extent_m in 0.0..4.0f64,
         ) {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
-            let grid = LikelihoodGrid::new(&scan, resolution_m, 0.1, depth, window, u64::MAX)
+            // Levels made in storage that held another grid's, larger or smaller.
+            let mut pool = GridPool::default();
+            let other = Scan::from_cartesian(&[[0.0, 0.0], [other_extent_m, 1.0]]).unwrap();
+            LikelihoodGrid::new(&other, 0.1, 0.1, depth + 1, 3, u64::MAX, &mut pool)
+                .unwrap()
+                .recycle(&mut pool);
+            let grid = LikelihoodGrid::new(&scan, resolution_m, 0.1, depth, window, u64::MAX, &mut pool)
                 .unwrap();
             let (nx, ny) = (grid.nx, grid.ny);
             let level0 = |i: i32, j: i32| {

@@ -86,7 +86,7 @@ use crate::error::{ConfigError, ScanRole};
 use crate::{IcpError, Prepared};
 pub use check::{Above, SourceSearch};
 use grid::{mean_of, range_weight};
-pub use grid::{score_at, LikelihoodGrid};
+pub use grid::{score_at, GridPool, LikelihoodGrid};
 use histogram::OrientationHistogram;
 use search::{Best, Buffers, Search};
 
@@ -349,6 +349,16 @@ impl GlobalMatcher {
     /// its grid would exceed `max_grid_cells`, or (histogram mode) its surface estimates are
     /// not one per return.
     pub fn new(reference: Prepared<'_>, params: &GlobalParams) -> Result<Self, IcpError> {
+        Self::new_in(reference, params, &mut GridPool::default())
+    }
+
+    /// [`Self::new`], its grid's levels in storage taken from `pool`: a run that hands each
+    /// matcher back when done ([`Self::recycle`]) allocates its grids' memory once.
+    pub fn new_in(
+        reference: Prepared<'_>,
+        params: &GlobalParams,
+        pool: &mut GridPool,
+    ) -> Result<Self, IcpError> {
         params.validate().map_err(section_error)?;
         let histogram = match params.rotation {
             RotationMode::Full => None,
@@ -367,12 +377,18 @@ impl GlobalMatcher {
             params.depth(),
             params.window_cells(),
             params.max_grid_cells,
+            pool,
         )?;
         Ok(Self {
             params: *params,
             grid,
             histogram,
         })
+    }
+
+    /// Gives the grid's storage to `pool`, for the next matcher ([`Self::new_in`]).
+    pub fn recycle(self, pool: &mut GridPool) {
+        self.grid.recycle(pool);
     }
 
     /// The parameters.

@@ -548,6 +548,7 @@ impl Search<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::global::grid::GridPool;
     use crate::Scan;
     use proptest::prelude::*;
 
@@ -584,7 +585,7 @@ mod tests {
             let pts: Vec<[f64; 2]> = reference.iter().map(|&(x, y)| [x, y]).collect();
             let scan = Scan::from_cartesian(&pts).unwrap();
             let grid =
-                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, window, u64::MAX)
+                LikelihoodGrid::new(&scan, resolution_m, sigma_m, depth, window, u64::MAX, &mut GridPool::default())
                     .unwrap();
             let points: Vec<Point2<f64>> =
                 source.iter().map(|&(x, y, _)| Point2::new(x, y)).collect();
@@ -678,7 +679,8 @@ mod tests {
         };
         let pts: Vec<[f64; 2]> = (0..240).map(wall).collect();
         let scan = Scan::from_cartesian(&pts).unwrap();
-        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, 20, u64::MAX).unwrap();
+        let grid = LikelihoodGrid::new(&scan, 0.1, 0.1, 6, 20, u64::MAX, &mut GridPool::default())
+            .unwrap();
         let points: Vec<Point2<f64>> = scan
             .returns()
             .iter()
