@@ -8,8 +8,9 @@
 //!
 //! The check of a result (`global/<data>-check`): HD_GICP's result of each pair (registered
 //! beforehand from the identity) checked as `icp-eval run` checks it, the whole cost of a pair
-//! (the grid, the source's preparation, the search above the result's bar: `check`) against the
-//! check by the full search it replaces (`search`), and the check alone on a prepared source
+//! (the grid in storage reused from the pair before, as the runner does, the source's
+//! preparation, the search above the result's bar: `check`) against the check by the full search
+//! it replaces (`search`), the grid alone (`grid`), and the check alone on a prepared source
 //! (`check-only`).
 //!
 //! The aces log is looked for as `$ICP_DATA_DIR/carmen/aces.log.gz` or
@@ -26,7 +27,9 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use datasets::carmen::{load, CarmenOptions};
 use datasets::synthetic::{generate, Scenario};
 use eval::run::status::clearly_better;
-use icp_core::global::{score_at, GlobalMatcher, GlobalParams, GlobalWorkspace, RotationMode};
+use icp_core::global::{
+    score_at, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool, RotationMode,
+};
 use icp_core::variants::builtin;
 use icp_core::{Prepared, Registrar, Scan, SurfaceParams, Surfaces, Workspace};
 use nalgebra::Isometry2;
@@ -135,15 +138,27 @@ fn check(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
     let mut group = c.benchmark_group(format!("global/{name}-check"));
     group.throughput(Throughput::Elements(pairs.len() as u64));
     let mut workspace = GlobalWorkspace::default();
+    let mut pool = GridPool::default();
     group.bench_function("check", |b| {
         b.iter(|| {
             for ((source, reference), result) in pairs.iter().zip(&results) {
-                let matcher = GlobalMatcher::new(reference.prepared(), &params).expect("a grid");
+                let matcher = GlobalMatcher::new_in(reference.prepared(), &params, &mut pool)
+                    .expect("a grid");
                 let mut prepared = matcher
                     .prepare(&mut workspace, source.prepared(), Isometry2::identity())
                     .expect("a source");
                 let result_score = score_at(matcher.grid(), &source.scan, result);
                 matcher.best_above(&mut prepared, |s| clearly_better(s, result_score));
+                matcher.recycle(&mut pool);
+            }
+        })
+    });
+    group.bench_function("grid", |b| {
+        b.iter(|| {
+            for (_, reference) in pairs {
+                GlobalMatcher::new_in(reference.prepared(), &params, &mut pool)
+                    .expect("a grid")
+                    .recycle(&mut pool);
             }
         })
     });

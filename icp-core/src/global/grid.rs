@@ -12,7 +12,7 @@
 
 use nalgebra::{Isometry2, Point2};
 
-use super::likelihood::{EXPONENT_BELOW, QUANTISED_EXP};
+use super::likelihood::QUANTISED_EXP;
 pub use super::likelihood::{FULL_SCALE, TRUNCATION_SIGMAS};
 use crate::error::ScanRole;
 use crate::scan::Return;
@@ -36,26 +36,35 @@ const FAR_CELL: f64 = (1 << 28) as f64;
 /// which is padding (0) at every level but the top one (see [`LikelihoodGrid::new`]).
 fn pool_into(level: &[u8], s: usize, stride: usize, out: &mut Vec<u8>) {
     let n = level.len();
-    let ahead = [0, s, s * stride, s * stride + s];
-    // Cells whose four sources are all inside, then the last ones, whose far sources read 0.
-    let inside = n.saturating_sub(ahead[3]);
+    let ahead = [s, s * stride, s * stride + s];
+    let from = |a: usize| &level[a.min(n)..];
+    // `k + a < n` for `k` below `n − a`: the cells whose sources from `ahead[m]` on are past
+    // the end, and read 0, come last.
+    let [one, two, all] = ahead.map(|a| n.saturating_sub(a));
     out.clear();
     out.reserve(n);
-    let from = |a: usize| &level[a.min(n)..];
     out.extend(
-        level[..inside]
+        level[..all]
             .iter()
+            .zip(from(ahead[0]))
             .zip(from(ahead[1]))
             .zip(from(ahead[2]))
-            .zip(from(ahead[3]))
             .map(|(((&a, &b), &c), &d)| a.max(b).max(c.max(d))),
     );
-    out.extend((inside..n).map(|k| {
-        ahead
+    out.extend(
+        level[all..two]
             .iter()
-            .filter_map(|&a| level.get(k + a))
-            .fold(0, |m, &v| m.max(v))
-    }));
+            .zip(from(all + ahead[0]))
+            .zip(from(all + ahead[1]))
+            .map(|((&a, &b), &c)| a.max(b).max(c)),
+    );
+    out.extend(
+        level[two..one]
+            .iter()
+            .zip(from(two + ahead[0]))
+            .map(|(&a, &b)| a.max(b)),
+    );
+    out.extend_from_slice(&level[one..]);
 }
 
 /// The cells of likelihood grids' levels, handed from one grid to the next (see
@@ -70,6 +79,61 @@ impl GridPool {
     /// A level's storage, empty (with the capacity it had).
     fn take(&mut self) -> Vec<u8> {
         self.levels.pop().unwrap_or_default()
+    }
+}
+
+/// Where level 0's cells are: `nx × ny` cells of side `resolution_m` from `origin`, cell
+/// `(i, j)` at index `(j + pad) · stride + i + pad`.
+struct Cells {
+    nx: usize,
+    ny: usize,
+    stride: usize,
+    pad: usize,
+    origin: Point2<f64>,
+    resolution_m: f64,
+}
+
+impl Cells {
+    /// Writes into `level0` (zeros) the likelihood of `points` with `sigma_m` (see the module
+    /// doc). For each point, the cells' squared distances along x are made once, and a row
+    /// that is out of reach along y is skipped (its squared distance alone exceeds the
+    /// reach): each cell's arithmetic is the same as one by one, so are its values.
+    fn rasterise(&self, points: &[Point2<f64>], sigma_m: f64, level0: &mut [u8]) {
+        let (resolution_m, stride, pad) = (self.resolution_m, self.stride, self.pad);
+        let reach_m = TRUNCATION_SIGMAS * sigma_m;
+        let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
+        let reach_sq = reach_m * reach_m;
+        let quantised_exp = &*QUANTISED_EXP;
+        // The cells whose centre may be within reach of coordinate c along one axis, and
+        // the squared distances of their centres from it.
+        let span = |c: f64, n: usize| {
+            let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
+            let last = ((c + reach_m) / resolution_m).floor().min(n as f64 - 1.0) as usize;
+            first..=last
+        };
+        let squared = |k: usize, c: f64| {
+            let d = (k as f64 + 0.5) * resolution_m - c;
+            d * d
+        };
+        let mut dx_sq = Vec::new();
+        for p in points {
+            let (px, py) = (p.x - self.origin.x, p.y - self.origin.y);
+            let columns = span(px, self.nx);
+            let first = *columns.start();
+            dx_sq.clear();
+            dx_sq.extend(columns.map(|i| squared(i, px)));
+            for j in span(py, self.ny) {
+                let dy_sq = squared(j, py);
+                if dy_sq > reach_sq {
+                    continue;
+                }
+                let row = &mut level0[(j + pad) * stride + pad + first..][..dx_sq.len()];
+                for (cell, &dxx) in row.iter_mut().zip(&dx_sq) {
+                    let d_sq = dxx + dy_sq;
+                    quantised_exp.raise(cell, d_sq * inv_two_var, d_sq <= reach_sq);
+                }
+            }
+        }
     }
 }
 
@@ -179,32 +243,15 @@ impl LikelihoodGrid {
         let mut data = pool.take();
         data.clear();
         data.resize(stride * rows, 0);
-        let inv_two_var = 1.0 / (2.0 * sigma_m * sigma_m);
-        let reach_sq = reach_m * reach_m;
-        let (below, quantised_exp) = (&*EXPONENT_BELOW, &*QUANTISED_EXP);
-        // The cells whose centre may be within reach of coordinate c along one axis.
-        let span = |c: f64, n: usize| {
-            let first = ((c - reach_m) / resolution_m).floor().max(0.0) as usize;
-            let last = ((c + reach_m) / resolution_m).floor().min(n as f64 - 1.0) as usize;
-            first..=last
+        let cells = Cells {
+            nx,
+            ny,
+            stride,
+            pad,
+            origin,
+            resolution_m,
         };
-        for p in &points {
-            let (px, py) = (p.x - origin.x, p.y - origin.y);
-            for j in span(py, ny) {
-                let dy = (j as f64 + 0.5) * resolution_m - py;
-                let row = &mut data[(j + pad) * stride + pad..][..nx];
-                for i in span(px, nx) {
-                    let dx = (i as f64 + 0.5) * resolution_m - px;
-                    let d_sq = dx * dx + dy * dy;
-                    let exponent = d_sq * inv_two_var;
-                    // Beyond `below[v]` the likelihood quantises to at most v: the cell keeps
-                    // its value, and the likelihood is not looked up.
-                    if d_sq <= reach_sq && exponent <= below[usize::from(row[i])] {
-                        row[i] = row[i].max(quantised_exp.of(exponent));
-                    }
-                }
-            }
-        }
+        cells.rasterise(&points, sigma_m, &mut data);
         let mut levels = vec![data];
         for h in 1..=depth + 1 {
             let mut next = pool.take();

@@ -4,7 +4,7 @@
 //! A cell is written once per reference point within reach, and `exp` was most of the grid's
 //! cost. The quantised value is a step function of `x` with 255 steps, at the thresholds
 //! `T_v = ln(255 / (v + ½))` where `255 e^{−x}` rounds up to `v + 1`. So:
-//! * beyond `T_v` a point cannot lift a cell that already holds `v` ([`EXPONENT_BELOW`]);
+//! * beyond `T_v` a point cannot lift a cell that already holds `v` ([`exponent_below`]);
 //! * between two thresholds the value is constant, and a table over small intervals of `x`
 //!   ([`QuantisedExp`]) gives it for every interval no threshold comes near; only inside the
 //!   few intervals that hold one is `exp` computed. Every value is the one `exp` would give,
@@ -26,10 +26,6 @@ pub(crate) fn quantise(v: f64) -> u8 {
 /// and far below a quantisation step.
 pub(crate) const EXPONENT_SLACK: f64 = 1e-9;
 
-/// [`exponent_below`], made once per process rather than once per grid.
-pub(crate) static EXPONENT_BELOW: std::sync::LazyLock<[f64; 256]> =
-    std::sync::LazyLock::new(exponent_below);
-
 /// `below[v]`: an `x ≥ 0` beyond which `quantise(exp(−x)) ≤ v` for certain: `255 e^{−x}` is
 /// below `v + ½` (where rounding would give `v + 1`) from `x = ln(255 / (v + ½))` on, and
 /// the slack covers the rounding of the computed `exp` and `ln`. (Negative for 255: every
@@ -47,8 +43,12 @@ const INTERVALS_PER_UNIT: f64 = 1024.0;
 #[derive(Debug)]
 pub(crate) struct QuantisedExp {
     /// Per interval `[k, k + 1) / INTERVALS_PER_UNIT` of `x`: its value, or `None` where a
-    /// threshold lies in it or within [`EXPONENT_SLACK`] of it.
+    /// threshold lies in it or within [`EXPONENT_SLACK`] of it; then `None` for every `x`
+    /// past the intervals (by `exp`), and last `Some(0)`, the value out of reach (see
+    /// [`Self::raise`]).
     values: Vec<Option<u8>>,
+    /// [`exponent_below`].
+    below: [f64; 256],
 }
 
 /// [`QuantisedExp`], made once per process.
@@ -71,18 +71,46 @@ impl QuantisedExp {
                 let near = |t: f64| t >= lo - EXPONENT_SLACK && t <= hi + EXPONENT_SLACK;
                 (!thresholds.iter().any(|&t| near(t))).then(|| quantise((-0.5 * (lo + hi)).exp()))
             })
+            .chain([None, Some(0)])
             .collect();
-        Self { values }
+        Self {
+            values,
+            below: exponent_below(),
+        }
+    }
+
+    /// The entry of `x ≥ 0`: its interval's, or the one past them. (A float to usize cast
+    /// saturates: a huge `x` falls past them too.)
+    #[inline]
+    fn entry(&self, x: f64) -> usize {
+        ((x * INTERVALS_PER_UNIT) as usize).min(self.values.len() - 2)
     }
 
     /// `quantise(exp(−x))` for `x ≥ 0`.
+    #[cfg(test)]
+    fn of(&self, x: f64) -> u8 {
+        self.values[self.entry(x)].unwrap_or_else(|| quantise((-x).exp()))
+    }
+
+    /// Raises `cell` to `quantise(exp(−x))` (`x ≥ 0`) when it is higher and `in_reach`; an
+    /// out-of-reach cell keeps its value. `exp` is computed only in an interval that holds a
+    /// threshold, and then only when `x` is below the cell's own threshold (beyond it the
+    /// value would not lift the cell). Without a branch on `in_reach`, so a grid's cells
+    /// are written at the pace of the table's loads.
     #[inline]
-    pub(crate) fn of(&self, x: f64) -> u8 {
-        // A float to usize cast saturates: a huge `x` falls past the table.
-        let k = (x * INTERVALS_PER_UNIT) as usize;
-        match self.values.get(k) {
-            Some(&Some(v)) => v,
-            _ => quantise((-x).exp()),
+    pub(crate) fn raise(&self, cell: &mut u8, x: f64, in_reach: bool) {
+        let k = if in_reach {
+            self.entry(x)
+        } else {
+            self.values.len() - 1
+        };
+        match self.values[k] {
+            Some(v) => *cell = (*cell).max(v),
+            None => {
+                if x <= self.below[usize::from(*cell)] {
+                    *cell = (*cell).max(quantise((-x).exp()));
+                }
+            }
         }
     }
 }
@@ -125,6 +153,30 @@ mod tests {
             for e in [t, t.next_up(), t.next_down(), t + tiny] {
                 if e >= 0.0 {
                     prop_assert_eq!(table.of(e), quantise((-e).exp()), "e {}", e);
+                }
+            }
+        }
+    }
+
+    proptest! {
+        /// Raising a cell is the max of it and the likelihood in reach, its value out of
+        /// reach: the same cells as the test on the threshold then the likelihood.
+        #[test]
+        fn raising_a_cell_is_the_max_in_reach(
+            cell in any::<u8>(),
+            x in 0.0..6.0f64,
+            v in any::<u8>(),
+            tiny in -1e-6..1e-6f64,
+            in_reach in any::<bool>(),
+        ) {
+            let table = &*QUANTISED_EXP;
+            let t = exponent_below()[usize::from(v)] - EXPONENT_SLACK;
+            for e in [x, t, t.next_up(), t.next_down(), t + tiny] {
+                if e >= 0.0 {
+                    let mut raised = cell;
+                    table.raise(&mut raised, e, in_reach);
+                    let expected = if in_reach { cell.max(quantise((-e).exp())) } else { cell };
+                    prop_assert_eq!(raised, expected, "cell {} e {}", cell, e);
                 }
             }
         }
