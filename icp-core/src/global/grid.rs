@@ -165,6 +165,8 @@ pub struct LikelihoodGrid {
     /// The lower-left corner of cell `(0, 0)`, reference frame, metres.
     origin: Point2<f64>,
     resolution_m: f64,
+    /// `1 / resolution_m`, cells per metre.
+    cells_per_m: f64,
     sigma_m: f64,
 }
 
@@ -268,6 +270,7 @@ impl LikelihoodGrid {
             window,
             origin,
             resolution_m,
+            cells_per_m: 1.0 / resolution_m,
             sigma_m,
         })
     }
@@ -309,7 +312,16 @@ impl LikelihoodGrid {
                 FAR_CELL as i32
             }
         };
-        cell_coordinates(q, self.origin, 1.0 / self.resolution_m).map(c)
+        cell_coordinates(q, self.origin, self.cells_per_m).map(c)
+    }
+
+    /// The lookup of a return at `q` (reference frame) with `weight`, for a `q` whose cell is
+    /// known to be one [`Self::lookup_at`] takes (e.g. in a group's box: see
+    /// `Search::group_lookups`): its cell is [`Self::cell_of`]'s, without the clamp.
+    #[inline]
+    pub(crate) fn lookup_in_reach(&self, q: &Point2<f64>, weight: u32) -> Lookup {
+        let [fx, fy] = cell_coordinates(q, self.origin, self.cells_per_m);
+        self.lookup_at([floor(fx), floor(fy)], weight)
     }
 
     /// The quantised value at level `level` of cell `cell` (0 outside the grid).
@@ -343,7 +355,7 @@ impl LikelihoodGrid {
         // in none; then `c − w + pad ≥ 0` and `c + w + pad < stride` (or `rows`).
         let low = f64::from(-top - w);
         let (high_x, high_y) = (f64::from(self.nx + w), f64::from(self.ny + w));
-        let (origin, inv_res) = (self.origin, 1.0 / self.resolution_m);
+        let (origin, inv_res) = (self.origin, self.cells_per_m);
         out.reserve(returns.len());
         for (q, weight) in returns {
             let [fx, fy] = cell_coordinates(&q, origin, inv_res);

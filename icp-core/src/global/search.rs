@@ -74,7 +74,7 @@ pub(crate) struct Buffers {
     /// A group of rotations' lookups, of the returns it keeps (see
     /// [`Search::group_lookups`]).
     group: Vec<Lookup>,
-    kept: Vec<u32>,
+    kept: Vec<(Point2<f64>, u32)>,
     /// The group's chunk sums, `chunks` per block.
     group_chunks: Vec<u64>,
     /// The top-level blocks, and those a group may lift above the floor.
@@ -249,12 +249,8 @@ impl Search<'_> {
                     if !passed.is_empty() {
                         // The returns the group keeps, at their cells under rotation r.
                         let turn = UnitComplex::new(self.rotations[r]);
-                        lookups.extend(kept.iter().map(|&k| {
-                            let p = &self.points[k as usize];
-                            grid.lookup_at(
-                                grid.cell_of(&(turn * p + self.centre)),
-                                self.weights[k as usize],
-                            )
+                        lookups.extend(kept.iter().map(|&(p, weight)| {
+                            grid.lookup_in_reach(&(turn * p + self.centre), weight)
                         }));
                     }
                     starts.push(lookups.len());
@@ -312,7 +308,7 @@ impl Search<'_> {
     }
 
     /// The lookups of a group of rotations, candidates `first` to `last`: each return at its
-    /// lowest cell under them, those the grid keeps (their indices in `kept`); `false` (no
+    /// lowest cell under them, those the grid keeps (their points and weights in `kept`); `false` (no
     /// group) when a return's cells under them may span more than a top-level block.
     ///
     /// A return turning between two angles stays within the sagitta `|p| (1 − cos(Δ/2))` of
@@ -324,7 +320,7 @@ impl Search<'_> {
         first: usize,
         last: usize,
         group: &mut Vec<Lookup>,
-        kept: &mut Vec<u32>,
+        kept: &mut Vec<(Point2<f64>, u32)>,
     ) -> bool {
         let grid = self.grid;
         let (a0, a1) = (self.rotations[first], self.rotations[last]);
@@ -333,7 +329,7 @@ impl Search<'_> {
         let block_cells = 1i32 << grid.depth();
         group.clear();
         kept.clear();
-        for (k, (p, &weight)) in self.points.iter().zip(self.weights).enumerate() {
+        for (p, &weight) in self.points.iter().zip(self.weights) {
             let (q0, q1) = (r0 * p + self.centre, r1 * p + self.centre);
             let room_m = p.coords.norm() * sagitta_per_m
                 + ROUNDING_ROOM * (1.0 + q0.coords.norm().max(q1.coords.norm()));
@@ -345,7 +341,7 @@ impl Search<'_> {
             }
             if grid.group_keeps(cl) {
                 group.push(grid.lookup_at(cl, weight));
-                kept.push(k as u32);
+                kept.push((*p, weight));
             }
         }
         true
