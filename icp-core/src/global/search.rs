@@ -71,6 +71,8 @@ pub(crate) struct Buffers {
     starts: Vec<usize>,
     /// The headroom of a top-level node: per chunk of lookups, the rest at full scale.
     headroom: Vec<u64>,
+    /// The source points' distances from the sensor, metres.
+    norms: Vec<f64>,
     /// A group of rotations' lookups, of the returns it keeps (see
     /// [`Search::group_lookups`]).
     group: Vec<Lookup>,
@@ -169,6 +171,7 @@ impl Search<'_> {
             headroom,
             top,
             top_chunks,
+            norms,
             group,
             kept,
             group_chunks,
@@ -185,7 +188,9 @@ impl Search<'_> {
         blocks.clear();
         blocks.extend(self.blocks([-w, -w], top_level, [w, w]));
         group_chunks.resize(blocks.len() * chunks, 0);
-        let span_rad = self.group_span_rad();
+        norms.clear();
+        norms.extend(self.points.iter().map(|p| p.coords.norm()));
+        let span_rad = self.group_span_rad(norms);
         let mut read = 0;
         // Scores rotation `r`'s block `offset` (its lookups `mine`) against `room`.
         let mut score =
@@ -223,7 +228,7 @@ impl Search<'_> {
             {
                 last += 1;
             }
-            if last > first && self.group_lookups(first, last, group, kept) {
+            if last > first && self.group_lookups(first, last, norms, group, kept) {
                 full_scale_headroom(group, headroom);
                 passed.clear();
                 for (b, &offset) in blocks.iter().enumerate() {
@@ -291,11 +296,8 @@ impl Search<'_> {
     /// at most a top-level block less two cells (a cell either side for the arc and the
     /// rounding) and bulges off its chord by at most a quarter cell. A group's bound holds
     /// whatever the span (see [`Self::group_lookups`]); only its tightness depends on it.
-    fn group_span_rad(&self) -> f64 {
-        let reach_m = self
-            .points
-            .iter()
-            .fold(0.0f64, |m, p| m.max(p.coords.norm()));
+    fn group_span_rad(&self, norms: &[f64]) -> f64 {
+        let reach_m = norms.iter().fold(0.0f64, |m, &n| m.max(n));
         let res = self.grid.resolution_m();
         let block_cells = f64::from(1u32 << self.grid.depth());
         if reach_m > 0.0 {
@@ -308,17 +310,20 @@ impl Search<'_> {
     }
 
     /// The lookups of a group of rotations, candidates `first` to `last`: each return at its
-    /// lowest cell under them, those the grid keeps (their points and weights in `kept`); `false` (no
-    /// group) when a return's cells under them may span more than a top-level block.
+    /// lowest cell under them, those the grid keeps (their points and weights in `kept`);
+    /// `false` (no group) when a return's cells under them may span more than a top-level
+    /// block. `norms`: the points' distances from the sensor.
     ///
     /// A return turning between two angles stays within the sagitta `|p| (1 − cos(Δ/2))` of
     /// the chord between its two ends, so within their bounding box widened by that (and by
-    /// far more than any rounding); a cell is the floor of a position, monotone, so the
-    /// return's cell under each rotation of the group lies between the box's corners' cells.
+    /// far more than any rounding of positions no farther than `|p| + |centre|`); a cell is
+    /// the floor of a position, monotone, so the return's cell under each rotation of the
+    /// group lies between the box's corners' cells.
     fn group_lookups(
         &self,
         first: usize,
         last: usize,
+        norms: &[f64],
         group: &mut Vec<Lookup>,
         kept: &mut Vec<(Point2<f64>, u32)>,
     ) -> bool {
@@ -327,12 +332,12 @@ impl Search<'_> {
         let (r0, r1) = (UnitComplex::new(a0), UnitComplex::new(a1));
         let sagitta_per_m = 1.0 - (0.5 * (a1 - a0)).cos();
         let block_cells = 1i32 << grid.depth();
+        let centre_m = self.centre.norm();
         group.clear();
         kept.clear();
-        for (p, &weight) in self.points.iter().zip(self.weights) {
+        for ((p, &weight), &norm) in self.points.iter().zip(self.weights).zip(norms) {
             let (q0, q1) = (r0 * p + self.centre, r1 * p + self.centre);
-            let room_m = p.coords.norm() * sagitta_per_m
-                + ROUNDING_ROOM * (1.0 + q0.coords.norm().max(q1.coords.norm()));
+            let room_m = norm * sagitta_per_m + ROUNDING_ROOM * (1.0 + norm + centre_m);
             let low = Point2::new(q0.x.min(q1.x) - room_m, q0.y.min(q1.y) - room_m);
             let high = Point2::new(q0.x.max(q1.x) + room_m, q0.y.max(q1.y) + room_m);
             let (cl, ch) = (grid.cell_of(&low), grid.cell_of(&high));
