@@ -33,10 +33,12 @@ impl OrientationHistogram {
             let x = angle.rem_euclid(TAU) * per_rad;
             let lower = x.floor();
             let frac = x - lower;
-            // rem_euclid may round up to TAU itself: the bin index wraps.
-            let b = lower as usize % bins;
+            // rem_euclid may round up to TAU itself: the bin index wraps (x is in [0, bins],
+            // so once at most, without a division).
+            let wrap = |b: usize| if b >= bins { b - bins } else { b };
+            let b = wrap(lower as usize);
             weights[b] += 1.0 - frac;
-            weights[(b + 1) % bins] += frac;
+            weights[wrap(b + 1)] += frac;
         }
         Self { weights }
     }
