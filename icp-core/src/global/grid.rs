@@ -95,9 +95,9 @@ struct Cells {
 
 impl Cells {
     /// Writes into `level0` (zeros) the likelihood of `points` with `sigma_m` (see the module
-    /// doc). For each point, the cells' squared distances along x are made once, and a row
-    /// that is out of reach along y is skipped (its squared distance alone exceeds the
-    /// reach): each cell's arithmetic is the same as one by one, so are its values.
+    /// doc). For each point, the cells' squared distances along x are made once, and each
+    /// row visits only its run of cells in reach: each cell's arithmetic is the same as one by
+    /// one, so are its values.
     fn rasterise(&self, points: &[Point2<f64>], sigma_m: f64, level0: &mut [u8]) {
         let (resolution_m, stride, pad) = (self.resolution_m, self.stride, self.pad);
         let reach_m = TRUNCATION_SIGMAS * sigma_m;
@@ -124,13 +124,17 @@ impl Cells {
             dx_sq.extend(columns.map(|i| squared(i, px)));
             for j in span(py, self.ny) {
                 let dy_sq = squared(j, py);
-                if dy_sq > reach_sq {
+                // The cells in reach are a run: the x distances fall then rise.
+                let in_reach = |dxx: &f64| dxx + dy_sq <= reach_sq;
+                let (Some(lo), Some(hi)) = (
+                    dx_sq.iter().position(in_reach),
+                    dx_sq.iter().rposition(in_reach),
+                ) else {
                     continue;
-                }
-                let row = &mut level0[(j + pad) * stride + pad + first..][..dx_sq.len()];
-                for (cell, &dxx) in row.iter_mut().zip(&dx_sq) {
-                    let d_sq = dxx + dy_sq;
-                    quantised_exp.raise(cell, d_sq * inv_two_var, d_sq <= reach_sq);
+                };
+                let row = &mut level0[(j + pad) * stride + pad + first..][lo..=hi];
+                for (cell, &dxx) in row.iter_mut().zip(&dx_sq[lo..=hi]) {
+                    quantised_exp.raise(cell, (dxx + dy_sq) * inv_two_var);
                 }
             }
         }

@@ -44,8 +44,7 @@ const INTERVALS_PER_UNIT: f64 = 1024.0;
 pub(crate) struct QuantisedExp {
     /// Per interval `[k, k + 1) / INTERVALS_PER_UNIT` of `x`: its value, or `None` where a
     /// threshold lies in it or within [`EXPONENT_SLACK`] of it; then `None` for every `x`
-    /// past the intervals (by `exp`), and last `Some(0)`, the value out of reach (see
-    /// [`Self::raise`]).
+    /// past the intervals (by `exp`).
     values: Vec<Option<u8>>,
     /// [`exponent_below`].
     below: [f64; 256],
@@ -71,7 +70,7 @@ impl QuantisedExp {
                 let near = |t: f64| t >= lo - EXPONENT_SLACK && t <= hi + EXPONENT_SLACK;
                 (!thresholds.iter().any(|&t| near(t))).then(|| quantise((-0.5 * (lo + hi)).exp()))
             })
-            .chain([None, Some(0)])
+            .chain([None])
             .collect();
         Self {
             values,
@@ -83,7 +82,7 @@ impl QuantisedExp {
     /// saturates: a huge `x` falls past them too.)
     #[inline]
     fn entry(&self, x: f64) -> usize {
-        ((x * INTERVALS_PER_UNIT) as usize).min(self.values.len() - 2)
+        ((x * INTERVALS_PER_UNIT) as usize).min(self.values.len() - 1)
     }
 
     /// `quantise(exp(−x))` for `x ≥ 0`.
@@ -92,19 +91,12 @@ impl QuantisedExp {
         self.values[self.entry(x)].unwrap_or_else(|| quantise((-x).exp()))
     }
 
-    /// Raises `cell` to `quantise(exp(−x))` (`x ≥ 0`) when it is higher and `in_reach`; an
-    /// out-of-reach cell keeps its value. `exp` is computed only in an interval that holds a
-    /// threshold, and then only when `x` is below the cell's own threshold (beyond it the
-    /// value would not lift the cell). Without a branch on `in_reach`, so a grid's cells
-    /// are written at the pace of the table's loads.
+    /// Raises `cell` to `quantise(exp(−x))` (`x ≥ 0`) when that is higher. `exp` is computed
+    /// only in an interval that holds a threshold, and then only when `x` is below the cell's
+    /// own threshold (beyond it the value would not lift the cell).
     #[inline]
-    pub(crate) fn raise(&self, cell: &mut u8, x: f64, in_reach: bool) {
-        let k = if in_reach {
-            self.entry(x)
-        } else {
-            self.values.len() - 1
-        };
-        match self.values[k] {
+    pub(crate) fn raise(&self, cell: &mut u8, x: f64) {
+        match self.values[self.entry(x)] {
             Some(v) => *cell = (*cell).max(v),
             None => {
                 if x <= self.below[usize::from(*cell)] {
@@ -159,24 +151,22 @@ mod tests {
     }
 
     proptest! {
-        /// Raising a cell is the max of it and the likelihood in reach, its value out of
-        /// reach: the same cells as the test on the threshold then the likelihood.
+        /// Raising a cell is the max of it and the likelihood: the same cells as the test on
+        /// the threshold then the likelihood.
         #[test]
-        fn raising_a_cell_is_the_max_in_reach(
+        fn raising_a_cell_is_the_max(
             cell in any::<u8>(),
             x in 0.0..6.0f64,
             v in any::<u8>(),
             tiny in -1e-6..1e-6f64,
-            in_reach in any::<bool>(),
         ) {
             let table = &*QUANTISED_EXP;
             let t = exponent_below()[usize::from(v)] - EXPONENT_SLACK;
             for e in [x, t, t.next_up(), t.next_down(), t + tiny] {
                 if e >= 0.0 {
                     let mut raised = cell;
-                    table.raise(&mut raised, e, in_reach);
-                    let expected = if in_reach { cell.max(quantise((-e).exp())) } else { cell };
-                    prop_assert_eq!(raised, expected, "cell {} e {}", cell, e);
+                    table.raise(&mut raised, e);
+                    prop_assert_eq!(raised, cell.max(quantise((-e).exp())), "cell {} e {}", cell, e);
                 }
             }
         }
