@@ -1,7 +1,7 @@
 //! One pair's global search (correlative scan matching, `icp_core::global`), shared by every
 //! registration of the pair: the reference's likelihood grid, the source made ready for
 //! searches, the best pose when a start needs it (`--init global`), and the check of each
-//! result against it ([`GlobalCheck`]).
+//! result against it ([`GlobalCheck`]), the results of a pair's variants together.
 //!
 //! A check asks only the question the suspect rule asks: does a pose score more than the
 //! result plus [`SUSPECT_SCORE_GAIN`](crate::run::status::SUSPECT_SCORE_GAIN)? The branch and bound searches above that bar alone
@@ -68,27 +68,48 @@ impl<'w> Searched<'w> {
         *self.check_us.lock().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// What the search says about `result` of the source scan `source`.
-    pub fn check(&self, result: &Registration, source: &Scan) -> GlobalCheck {
+    /// What the search says about each of `results` of the source scan `source`, in their
+    /// order. They are asked lowest bar (result score) first: the first search runs above
+    /// the lowest bar, and what it proves answers the others (the best pose once found, or
+    /// that nothing clears a lower bar), where asked one by one in another order each lower
+    /// bar would need a search of its own. The answers are the same in any order.
+    pub fn check_all(&self, results: &[&Registration], source: &Scan) -> Vec<GlobalCheck> {
         // Timed once the search is this thread's: waiting for another's check is not this one.
         let mut prepared = self.source.lock().unwrap_or_else(PoisonError::into_inner);
         let clock = Instant::now();
-        let result_score = score_at(self.matcher.grid(), source, &result.t_ref_src);
-        let above = self
-            .matcher
-            .best_above(&mut prepared, |score| clearly_better(score, result_score));
+        let scores: Vec<f64> = results
+            .iter()
+            .map(|r| score_at(self.matcher.grid(), source, &r.t_ref_src))
+            .collect();
+        let mut by_bar: Vec<usize> = (0..results.len()).collect();
+        by_bar.sort_by(|&a, &b| scores[a].total_cmp(&scores[b]));
+        let mut answers: Vec<(usize, Above)> = by_bar
+            .into_iter()
+            .map(|k| {
+                let clears = |score| clearly_better(score, scores[k]);
+                (k, self.matcher.best_above(&mut prepared, clears))
+            })
+            .collect();
         drop(prepared);
-        let (best_t_ref_src, best_score) = match above {
-            Above::Best { t_ref_src, score } => (Some(t_ref_src), score),
-            Above::AtMost { score } => (None, score),
-        };
+        answers.sort_by_key(|&(k, _)| k);
         *self.check_us.lock().unwrap_or_else(PoisonError::into_inner) +=
             clock.elapsed().as_secs_f64() * 1e6;
-        GlobalCheck {
-            best_t_ref_src,
-            best_score,
-            result_t_ref_src: result.t_ref_src,
-            result_score,
-        }
+        results
+            .iter()
+            .zip(scores)
+            .zip(answers)
+            .map(|((result, result_score), (_, above))| {
+                let (best_t_ref_src, best_score) = match above {
+                    Above::Best { t_ref_src, score } => (Some(t_ref_src), score),
+                    Above::AtMost { score } => (None, score),
+                };
+                GlobalCheck {
+                    best_t_ref_src,
+                    best_score,
+                    result_t_ref_src: result.t_ref_src,
+                    result_score,
+                }
+            })
+            .collect()
     }
 }

@@ -247,6 +247,15 @@ pub fn run_from(
 }
 
 /// What the registrations of a block need besides the registrar and the pair.
+/// A variant as a pair's registrations use it: its registrar, the one a close start uses
+/// when that differs, and its result on the pair before where starts chain pairs.
+#[derive(Clone, Copy)]
+struct Variant<'a> {
+    registrar: &'a dyn Registrar,
+    close: Option<&'a dyn Registrar>,
+    previous: Option<&'a Previous>,
+}
+
 struct BlockJob<'a> {
     ds: &'a Dataset,
     prepared: &'a PreparedScans<'a>,
@@ -293,66 +302,88 @@ impl BlockJob<'_> {
         }
     }
 
-    /// Registers `pair` with the variant (its registrar, and the one a close start uses when
-    /// that differs) from each start of the chain in turn, until a result is not flagged
-    /// (else the last one is kept); `previous` is the variant's previous result and `searched`
-    /// the pair's global search.
+    /// Registers `pair` with each of `variants`, in their order, from each start of the chain
+    /// in turn, until its result is not flagged (else its last one is kept). The results of
+    /// one start are checked together against the pair's global search (`searched`), lowest
+    /// bar first (see [`Searched::check_all`]).
     fn run(
         &self,
-        variant: (&dyn Registrar, Option<&dyn Registrar>),
+        variants: &[Variant<'_>],
         workspace: &mut Workspace,
         pair: ScanPair,
-        previous: Option<&Previous>,
         searched: Option<&Searched>,
-    ) -> PairRun {
-        let (reg, reg_close) = variant;
-        let params = reg.surface_params();
-        let prepared_scan =
-            |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
-        let (source, reference) = (prepared_scan(pair.source), prepared_scan(pair.reference));
+    ) -> Vec<PairRun> {
         let dt_s = self.ds.pair_dt_s(pair);
-        let mut time_us = 0.0;
-        let mut kept = None;
+        let mut time_us = vec![0.0; variants.len()];
+        let mut kept: Vec<Option<PairRun>> = variants.iter().map(|_| None).collect();
+        let mut pending: Vec<usize> = (0..variants.len()).collect();
         for (attempt, &mode) in self.plan.chain.modes().iter().enumerate() {
             let guess = searched.and_then(|s| s.guess());
-            let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
-            let chosen = match reg_close {
-                Some(gated) if used.is_close() => gated,
-                _ => reg,
-            };
-            let clock = Instant::now();
-            let result = chosen.register_prepared(workspace, source, reference, start);
-            time_us += clock.elapsed().as_secs_f64() * 1e6;
-            let check = self.check(&result, searched, source.scan);
-            let status = PairStatus::of(&result, check.as_ref());
-            let done = !status.is_failure();
-            kept = Some(PairRun {
-                result,
-                status,
-                check,
-                init: Some(used),
-                attempts: attempt + 1,
-                time_us: Some(time_us),
-            });
-            if done {
+            let mut results = Vec::with_capacity(pending.len());
+            for &v in &pending {
+                let Variant {
+                    registrar,
+                    close,
+                    previous,
+                } = variants[v];
+                let params = registrar.surface_params();
+                let prepared_scan =
+                    |k: usize| Prepared::new(&self.ds.scans[k], self.prepared.get(&params, k));
+                let (start, used) = init::start(mode, self.ds, pair, dt_s, previous, guess);
+                let chosen = match close {
+                    Some(gated) if used.is_close() => gated,
+                    _ => registrar,
+                };
+                let clock = Instant::now();
+                let result = chosen.register_prepared(
+                    workspace,
+                    prepared_scan(pair.source),
+                    prepared_scan(pair.reference),
+                    start,
+                );
+                time_us[v] += clock.elapsed().as_secs_f64() * 1e6;
+                results.push((result, used));
+            }
+            let registrations: Vec<_> = results.iter().map(|(r, _)| r).collect();
+            let checks = self.checks(&registrations, searched, pair);
+            for ((&v, (result, used)), check) in pending.iter().zip(results).zip(checks) {
+                kept[v] = Some(PairRun {
+                    status: PairStatus::of(&result, check.as_ref()),
+                    result,
+                    check,
+                    init: Some(used),
+                    attempts: attempt + 1,
+                    time_us: Some(time_us[v]),
+                });
+            }
+            pending.retain(|&v| kept[v].as_ref().is_some_and(|r| r.status.is_failure()));
+            if pending.is_empty() {
                 break;
             }
         }
-        kept.expect("a chain has at least one mode")
+        kept.into_iter()
+            .map(|run| run.expect("a chain has at least one mode"))
+            .collect()
     }
 
-    /// What the pair's global search says about `result` of the source scan `source`, when
-    /// results are checked.
-    fn check(
+    /// What the pair's global search says about each of `results` of `pair`'s source scan,
+    /// when results are checked (`None` for a failed registration).
+    fn checks(
         &self,
-        result: &Result<Registration, IcpError>,
+        results: &[&Result<Registration, IcpError>],
         searched: Option<&Searched>,
-        source: &icp_core::Scan,
-    ) -> Option<GlobalCheck> {
-        match (result, searched) {
-            (Ok(r), Some(s)) if self.plan.check => Some(s.check(r, source)),
-            _ => None,
+        pair: ScanPair,
+    ) -> Vec<Option<GlobalCheck>> {
+        let ok: Vec<&Registration> = results.iter().filter_map(|r| r.as_ref().ok()).collect();
+        let mut answers = match searched {
+            Some(s) if self.plan.check => s.check_all(&ok, &self.ds.scans[pair.source]),
+            _ => Vec::new(),
         }
+        .into_iter();
+        results
+            .iter()
+            .map(|r| r.as_ref().ok().and_then(|_| answers.next()))
+            .collect()
     }
 
     /// The external estimate of the pair at `position` in the run, assessed at its pose and
@@ -380,7 +411,7 @@ impl BlockJob<'_> {
                 ),
             }),
         };
-        let check = self.check(&result, searched, source.scan);
+        let check = self.checks(&[&result], searched, pair).remove(0);
         PairRun {
             status: PairStatus::of(&result, check.as_ref()),
             result,
@@ -484,13 +515,14 @@ fn run_blocks(
                         part.iter()
                             .zip(&built)
                             .map(|(&pair, (searched, _))| {
-                                let run = job.run(
-                                    (reg.as_ref(), methods.gated(v)),
-                                    workspace,
-                                    pair,
-                                    previous.as_ref(),
-                                    searched.as_ref(),
-                                );
+                                let variant = Variant {
+                                    registrar: reg.as_ref(),
+                                    close: methods.gated(v),
+                                    previous: previous.as_ref(),
+                                };
+                                let run = job
+                                    .run(&[variant], workspace, pair, searched.as_ref())
+                                    .remove(0);
                                 progress.inc(1);
                                 previous = Some(previous_of(ds, pair, &run));
                                 run
@@ -553,20 +585,17 @@ fn run_blocks(
                     // and the timings compare.
                     let mut order: Vec<usize> = (0..n).collect();
                     order.shuffle(&mut ChaCha8Rng::seed_from_u64(position(i) as u64));
-                    let mut runs: Vec<(usize, PairRun)> = order
-                        .into_iter()
-                        .map(|v| {
-                            let run = job.run(
-                                (registrars[v].as_ref(), methods.gated(v)),
-                                workspace,
-                                pair,
-                                None,
-                                searched.as_ref(),
-                            );
-                            progress.inc(1);
-                            (v, run)
+                    let variants: Vec<Variant> = order
+                        .iter()
+                        .map(|&v| Variant {
+                            registrar: registrars[v].as_ref(),
+                            close: methods.gated(v),
+                            previous: None,
                         })
                         .collect();
+                    let ran = job.run(&variants, workspace, pair, searched.as_ref());
+                    progress.inc(n as u64);
+                    let mut runs: Vec<(usize, PairRun)> = order.into_iter().zip(ran).collect();
                     runs.sort_by_key(|(v, _)| *v);
                     let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
                     runs.extend(assess_all(i, pair, searched.as_ref()));
