@@ -113,3 +113,81 @@ impl<'w> Searched<'w> {
             .collect()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use datasets::synthetic::{generate, Scenario};
+    use icp_core::variants::builtin;
+    use icp_core::{Registrar, SurfaceParams, Surfaces, Workspace};
+    use nalgebra::Vector2;
+
+    use super::*;
+
+    /// Checked together (lowest bar first, then answered in their own order), results get
+    /// the answers each gets alone on a search of its own, in either order of asking.
+    #[test]
+    fn checks_together_answer_as_one_by_one() {
+        let ds = generate(&Scenario {
+            n_scans: 2,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let pair = ds.consecutive_pairs().0[0];
+        let surfaces: Vec<Surfaces> = ds
+            .scans
+            .iter()
+            .map(|s| Surfaces::estimate(s, &SurfaceParams::default()))
+            .collect();
+        let prepared = |k: usize| Prepared::new(&ds.scans[k], &surfaces[k]);
+        let registered = builtin("HD_GICP")
+            .unwrap()
+            .build()
+            .unwrap()
+            .register_prepared(
+                &mut Workspace::default(),
+                prepared(pair.source),
+                prepared(pair.reference),
+                Isometry2::identity(),
+            )
+            .unwrap();
+        // The result, results far off (a pose clears their bars) and one a little off.
+        let results: Vec<Registration> = [(0.0, 0.0, 0.0), (1.5, 0.0, 0.0), (0.0, 0.0, 20.0)]
+            .into_iter()
+            .chain([(0.05, -0.03, 0.4)])
+            .map(|(x, y, deg): (f64, f64, f64)| Registration {
+                t_ref_src: registered.t_ref_src
+                    * Isometry2::new(Vector2::new(x, y), deg.to_radians()),
+                ..registered.clone()
+            })
+            .collect();
+        let params = GlobalParams::default();
+        let source = &ds.scans[pair.source];
+        fn search<'w>(
+            (reference, source): (Prepared<'_>, Prepared<'_>),
+            params: &GlobalParams,
+            workspace: &'w mut GlobalWorkspace,
+        ) -> Searched<'w> {
+            let mut pool = GridPool::default();
+            Searched::new(reference, source, params, false, workspace, &mut pool).unwrap()
+        }
+        let scans = || (prepared(pair.reference), prepared(pair.source));
+        let one_by_one: Vec<GlobalCheck> = results
+            .iter()
+            .map(|r| {
+                let mut workspace = GlobalWorkspace::default();
+                search(scans(), &params, &mut workspace).check_all(&[r], source)[0]
+            })
+            .collect();
+        assert!(one_by_one.iter().any(|c| c.best_t_ref_src.is_some()));
+        assert!(one_by_one.iter().any(|c| c.best_t_ref_src.is_none()));
+        let asked: Vec<&Registration> = results.iter().collect();
+        let mut workspace = GlobalWorkspace::default();
+        let together = search(scans(), &params, &mut workspace).check_all(&asked, source);
+        assert_eq!(together, one_by_one);
+        let reversed: Vec<&Registration> = asked.iter().rev().copied().collect();
+        let mut expected = one_by_one.clone();
+        expected.reverse();
+        let together = search(scans(), &params, &mut workspace).check_all(&reversed, source);
+        assert_eq!(together, expected);
+    }
+}
