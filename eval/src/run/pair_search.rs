@@ -157,7 +157,7 @@ mod tests {
             .map(|(x, y, deg): (f64, f64, f64)| Registration {
                 t_ref_src: registered.t_ref_src
                     * Isometry2::new(Vector2::new(x, y), deg.to_radians()),
-                ..registered.clone()
+                ..registered
             })
             .collect();
         let params = GlobalParams::default();
