@@ -9,6 +9,7 @@
 
 use std::collections::BTreeMap;
 use std::ops::Range;
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
@@ -247,6 +248,38 @@ pub fn run_from(
 }
 
 /// What the registrations of a block need besides the registrar and the pair.
+/// The buffers of one pair's registrations and global search, reused from pair to pair.
+#[derive(Default)]
+struct PairBuffers {
+    workspace: Workspace,
+    global: GlobalWorkspace,
+    pool: GridPool,
+}
+
+/// Each of the run's threads' [`PairBuffers`], kept across blocks and rayon's splits of them
+/// (`map_init` would make them afresh for every split, and a fresh grid costs a page fault
+/// per page). A pair takes its thread's and puts them back: a pair that runs on the same
+/// thread meanwhile (work stealing) finds none and makes its own, and results never depend
+/// on what a buffer held before.
+struct ThreadBuffers(Vec<Mutex<PairBuffers>>);
+
+impl ThreadBuffers {
+    /// One slot per thread of the pool the run is in.
+    fn new() -> Self {
+        Self(
+            (0..rayon::current_num_threads())
+                .map(|_| Mutex::default())
+                .collect(),
+        )
+    }
+
+    /// The slot of the thread that calls.
+    fn of_this_thread(&self) -> &Mutex<PairBuffers> {
+        let thread = rayon::current_thread_index().unwrap_or(0);
+        &self.0[thread % self.0.len()]
+    }
+}
+
 /// A variant as a pair's registrations use it: its registrar, the one a close start uses
 /// when that differs, and its result on the pair before where starts chain pairs.
 #[derive(Clone, Copy)]
@@ -456,6 +489,7 @@ fn run_blocks(
         .collect();
     // Where starts chain pairs: the searches of the pairs in flight and their grids' storage,
     // and each variant's registration buffers.
+    let thread_buffers = ThreadBuffers::new();
     let mut chained: Vec<GlobalWorkspace> = Vec::new();
     let mut chained_pools: Vec<GridPool> = Vec::new();
     let mut variant_workspaces: Vec<Workspace> = Vec::new();
@@ -561,54 +595,52 @@ fn run_blocks(
         let runs: Vec<(Vec<PairRun>, Option<PairSearch>)> = block
             .par_iter()
             .enumerate()
-            // One workspace per rayon job: buffers are reused across the pairs a thread runs
-            // (results never depend on what a workspace held before).
-            .map_init(
-                || {
-                    (
-                        Workspace::default(),
-                        GlobalWorkspace::default(),
-                        GridPool::default(),
-                    )
-                },
-                |(workspace, gws, pool), (i, &pair)| {
-                    let (searched, search) = if searches {
-                        let (s, info) = job.search(pair, gws, pool);
-                        (s, Some(info))
-                    } else {
-                        (None, None)
-                    };
-                    // A workspace hands a variant the reference index and first matching of
-                    // the one before it on the same pair (same selection, matcher and start):
-                    // the first of such a group pays for both. Each pair runs its variants in
-                    // its own order, so every variant comes first in its group equally often
-                    // and the timings compare.
-                    let mut order: Vec<usize> = (0..n).collect();
-                    order.shuffle(&mut ChaCha8Rng::seed_from_u64(position(i) as u64));
-                    let variants: Vec<Variant> = order
-                        .iter()
-                        .map(|&v| Variant {
-                            registrar: registrars[v].as_ref(),
-                            close: methods.gated(v),
-                            previous: None,
-                        })
-                        .collect();
-                    let ran = job.run(&variants, workspace, pair, searched.as_ref());
-                    progress.inc(n as u64);
-                    let mut runs: Vec<(usize, PairRun)> = order.into_iter().zip(ran).collect();
-                    runs.sort_by_key(|(v, _)| *v);
-                    let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
-                    runs.extend(assess_all(i, pair, searched.as_ref()));
-                    let search = search.map(|info| PairSearch {
-                        time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
-                        ..info
-                    });
-                    if let Some(searched) = searched {
-                        searched.recycle(pool);
-                    }
-                    (runs, search)
-                },
-            )
+            .map(|(i, &pair)| {
+                let slot = thread_buffers.of_this_thread();
+                let mut buffers =
+                    std::mem::take(&mut *slot.lock().unwrap_or_else(PoisonError::into_inner));
+                let PairBuffers {
+                    workspace,
+                    global: gws,
+                    pool,
+                } = &mut buffers;
+                let (searched, search) = if searches {
+                    let (s, info) = job.search(pair, gws, pool);
+                    (s, Some(info))
+                } else {
+                    (None, None)
+                };
+                // A workspace hands a variant the reference index and first matching of
+                // the one before it on the same pair (same selection, matcher and start):
+                // the first of such a group pays for both. Each pair runs its variants in
+                // its own order, so every variant comes first in its group equally often
+                // and the timings compare.
+                let mut order: Vec<usize> = (0..n).collect();
+                order.shuffle(&mut ChaCha8Rng::seed_from_u64(position(i) as u64));
+                let variants: Vec<Variant> = order
+                    .iter()
+                    .map(|&v| Variant {
+                        registrar: registrars[v].as_ref(),
+                        close: methods.gated(v),
+                        previous: None,
+                    })
+                    .collect();
+                let ran = job.run(&variants, workspace, pair, searched.as_ref());
+                progress.inc(n as u64);
+                let mut runs: Vec<(usize, PairRun)> = order.into_iter().zip(ran).collect();
+                runs.sort_by_key(|(v, _)| *v);
+                let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
+                runs.extend(assess_all(i, pair, searched.as_ref()));
+                let search = search.map(|info| PairSearch {
+                    time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
+                    ..info
+                });
+                if let Some(searched) = searched {
+                    searched.recycle(pool);
+                }
+                *slot.lock().unwrap_or_else(PoisonError::into_inner) = buffers;
+                (runs, search)
+            })
             .collect();
         for (pair_runs, search) in runs {
             for (variant, run) in per_variant.iter_mut().zip(pair_runs) {
