@@ -146,15 +146,15 @@ impl Cells {
 /// Every level has one layout, padded with 0 so that a source return looked up at any
 /// offset of the translation window stays inside it: cell `(i, j)` is at index
 /// `(j + pad) · stride + i + pad` of each level, for `i` in `−pad..stride − pad` and `j` in
-/// `−pad..rows − pad`, with `pad = 2^(depth + 1) − 1 + 2 · window` (the level above the top
-/// included) and `2 · window + 2^depth` more cells past the far side of level 0. A return is
+/// `−pad..rows − pad`, with `pad = 2^(depth + 1) − 1 + 2 · window` (for the level above the
+/// top too) and `2 · window + 2^depth` more cells past the far side of level 0. A return is
 /// looked up by its index at the window's lowest offset plus the offset's shift (`shift`, see
-/// `lookups`): no bounds test per axis.
+/// `lookups`): no bounds test per axis. The level above the top, which bounds several
+/// rotations at once (see `Search::top_level`), is not stored: a cell of it is the max of four
+/// of the top level's ([`Self::sum_above_top`]), read only at a few offsets per group.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LikelihoodGrid {
-    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself. One level
-    /// more than the pyramid's depth: the top one pooled once more, for the bounds over
-    /// several rotations at once (see `Search::top_level`).
+    /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself.
     levels: Vec<Vec<u8>>,
     /// Cells along x and y of level 0 that may be non-zero.
     nx: i32,
@@ -236,7 +236,7 @@ impl LikelihoodGrid {
                 max: MAX_LEVEL_CELLS,
             });
         }
-        let total = f64::from(depth + 2) * per_level;
+        let total = f64::from(depth + 1) * per_level;
         if total > max_cells as f64 {
             return Err(IcpError::GlobalSearchTooLarge {
                 what: "grid cells (max_grid_cells)",
@@ -259,7 +259,7 @@ impl LikelihoodGrid {
         };
         cells.rasterise(&points, sigma_m, &mut data);
         let mut levels = vec![data];
-        for h in 1..=depth + 1 {
+        for h in 1..=depth {
             let mut next = pool.take();
             pool_into(&levels[h as usize - 1], 1 << (h - 1), stride, &mut next);
             levels.push(next);
@@ -296,7 +296,7 @@ impl LikelihoodGrid {
 
     /// Max-pooled levels above level 0.
     pub fn depth(&self) -> u32 {
-        self.levels.len() as u32 - 2
+        self.levels.len() as u32 - 1
     }
 
     /// Cells along x and y of level 0.
@@ -416,23 +416,64 @@ impl LikelihoodGrid {
     ) -> Option<u64> {
         // Every lookup's index plus the shift is inside the level (see `Self::lookup`).
         let cells = &self.levels[level as usize][shift..];
-        let mut sum = 0;
-        let chunks = lookups.chunks(CHUNK).zip(headroom.iter().zip(chunk_sums));
-        for (chunk, (&room, out)) in chunks {
-            if sum + room <= floor {
-                return None;
-            }
-            *read += chunk.len() as u64;
-            let weighted = |l: &Lookup| u64::from(cells[l.index as usize]) * u64::from(l.weight);
-            // A whole chunk has a fixed length: its loop is unrolled.
-            *out = match <&[Lookup; CHUNK]>::try_from(chunk) {
-                Ok(whole) => whole.iter().map(weighted).sum(),
-                Err(_) => chunk.iter().map(weighted).sum(),
-            };
-            sum += *out;
-        }
-        (sum > floor).then_some(sum)
+        let value = |index: usize| cells[index];
+        sum_above_with(lookups, headroom, floor, read, chunk_sums, value)
     }
+
+    /// [`Self::sum_above`] at the level above the top, the max of the top level's four cells
+    /// at `k`, `k + s`, `k + s · stride` and `k + s · stride + s` (`s = 2^depth`), for the
+    /// lookups of a group of rotations ([`Self::group_keeps`]): their cells there stay inside
+    /// the layout, whose far padding is `2^depth` wider than the window needs.
+    #[inline]
+    pub(crate) fn sum_above_top(
+        &self,
+        lookups: &[Lookup],
+        headroom: &[u64],
+        shift: usize,
+        floor: u64,
+        read: &mut u64,
+        chunk_sums: &mut [u64],
+    ) -> Option<u64> {
+        let s = 1usize << self.depth();
+        let ahead = [s, s * self.stride, s * self.stride + s];
+        let cells = &self.levels[self.depth() as usize][shift..];
+        let value = |index: usize| {
+            let block = &cells[index..=index + ahead[2]];
+            block[0]
+                .max(block[ahead[0]])
+                .max(block[ahead[1]].max(block[ahead[2]]))
+        };
+        sum_above_with(lookups, headroom, floor, read, chunk_sums, value)
+    }
+}
+
+/// The sum of [`LikelihoodGrid::sum_above`] with the cells' values by `value` (of a lookup's
+/// index).
+#[inline]
+fn sum_above_with(
+    lookups: &[Lookup],
+    headroom: &[u64],
+    floor: u64,
+    read: &mut u64,
+    chunk_sums: &mut [u64],
+    value: impl Fn(usize) -> u8,
+) -> Option<u64> {
+    let mut sum = 0;
+    let chunks = lookups.chunks(CHUNK).zip(headroom.iter().zip(chunk_sums));
+    for (chunk, (&room, out)) in chunks {
+        if sum + room <= floor {
+            return None;
+        }
+        *read += chunk.len() as u64;
+        let weighted = |l: &Lookup| u64::from(value(l.index as usize)) * u64::from(l.weight);
+        // A whole chunk has a fixed length: its loop is unrolled.
+        *out = match <&[Lookup; CHUNK]>::try_from(chunk) {
+            Ok(whole) => whole.iter().map(weighted).sum(),
+            Err(_) => chunk.iter().map(weighted).sum(),
+        };
+        sum += *out;
+    }
+    (sum > floor).then_some(sum)
 }
 
 impl LikelihoodGrid {
@@ -562,7 +603,8 @@ mod tests {
         /// Every cell of every level, padding included, is the max of level 0's cells in its
         /// block (0 outside level 0's `nx × ny`); a return's lookup reads that value at every
         /// offset of the window, and a return without a lookup reads 0 at every level and
-        /// offset.
+        /// offset; a group's lookup reads the level above the top's value, down to the
+        /// lowest and up to the highest cell a group keeps.
         #[test]
         fn levels_and_lookups_are_the_definition(
             reference in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64), 1..20),
@@ -604,7 +646,7 @@ mod tests {
                     }
                 }
             }
-            for (i, j) in cells {
+            for &(i, j) in &cells {
                 let q = grid.origin + Vector2::new(f64::from(i) + 0.5, f64::from(j) + 0.5) * grid.resolution_m;
                 prop_assert_eq!(grid.cell_of(&q), [i, j]);
                 let mut lookups = Vec::new();
@@ -622,6 +664,29 @@ mod tests {
                             });
                             prop_assert_eq!(sum, expected, "level {} cell {} {} offset {} {}", h, i, j, dx, dy);
                         }
+                    }
+                }
+            }
+            // The level above the top, for the lowest cells a group of rotations keeps: the max
+            // of level 0 over the block of 2^(depth + 1) cells at every offset of the window.
+            let above = 2 << depth;
+            for (i, j) in cells.iter().copied().chain([(-pad, -pad), (nx + window - 1, ny + window - 1)]) {
+                if !grid.group_keeps([i, j]) {
+                    continue;
+                }
+                let lookup = grid.lookup_at([i, j], 3);
+                for dy in -window..=window {
+                    for dx in -window..=window {
+                        let expected = (0..above)
+                            .flat_map(|b| (0..above).map(move |a| (a, b)))
+                            .map(|(a, b)| 3 * u64::from(level0(i + dx + a, j + dy + b)))
+                            .max()
+                            .unwrap();
+                        let shift = grid.shift([dx, dy]);
+                        let sum = grid
+                            .sum_above_top(&[lookup], &[u64::MAX], shift, 0, &mut 0, &mut [0])
+                            .unwrap_or(0);
+                        prop_assert_eq!(sum, expected, "above the top, cell {} {} offset {} {}", i, j, dx, dy);
                     }
                 }
             }

@@ -159,9 +159,8 @@ pub struct GlobalParams {
 ///   score (4 above 0.9, against 15 of the 432 right ones); no synthetic pair has one; 2% more
 ///   cells read. 0.5 m is beyond the width of a score peak (3σ) and below the corridor
 ///   shifts of the wrong guesses (0.9–1.4 m).
-/// * `max_grid_cells` 2^24 (16 MiB): the largest grid with its pyramid, the level above its
-///   top and their padding is 3.2 M cells on aces, 4.2 M on the synthetic harbour and 6.4 M
-///   on marina.
+/// * `max_grid_cells` 2^24 (16 MiB): the largest grid with its pyramid and their padding is
+///   2.8 M cells on aces, 3.6 M on the synthetic harbour and 5.5 M on marina.
 impl Default for GlobalParams {
     fn default() -> Self {
         Self {

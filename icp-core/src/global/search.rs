@@ -232,8 +232,7 @@ impl Search<'_> {
                 full_scale_headroom(group, headroom);
                 passed.clear();
                 for (b, &offset) in blocks.iter().enumerate() {
-                    let above = grid.sum_above(
-                        top_level + 1,
+                    let above = grid.sum_above_top(
                         group,
                         headroom,
                         grid.shift(offset),
