@@ -68,8 +68,9 @@ fn pool_into(level: &[u8], s: usize, stride: usize, out: &mut Vec<u8>) {
 }
 
 /// The cells of likelihood grids' levels, handed from one grid to the next (see
-/// [`LikelihoodGrid::new`] and [`LikelihoodGrid::recycle`]): a run's grids then reuse their
-/// memory, where a freshly allocated level costs a page fault per page on first write.
+/// [`GlobalMatcher::new_in`](super::GlobalMatcher::new_in) and `recycle`): a run's grids
+/// then reuse their memory, where a freshly allocated level costs a page fault per page on
+/// first write.
 #[derive(Clone, Debug, Default)]
 pub struct GridPool {
     levels: Vec<Vec<u8>>,
@@ -151,7 +152,7 @@ impl Cells {
 /// looked up by its index at the window's lowest offset plus the offset's shift (`shift`, see
 /// `lookups`): no bounds test per axis. The level above the top, which bounds several
 /// rotations at once (see `Search::top_level`), is not stored: a cell of it is the max of four
-/// of the top level's ([`Self::sum_above_top`]), read only at a few offsets per group.
+/// of the top level's (`sum_above_top`), read only at a few offsets per group.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LikelihoodGrid {
     /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself.
