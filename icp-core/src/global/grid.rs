@@ -152,7 +152,7 @@ impl Cells {
 /// looked up by its index at the window's lowest offset plus the offset's shift (`shift`, see
 /// `lookups`): no bounds test per axis. The level above the top, which bounds several
 /// rotations at once (see `Search::top_level`), is not stored: a cell of it is the max of four
-/// of the top level's (`sum_above_top`), read only at a few offsets per group.
+/// of the top level's (see `sum_above`), read only at a few offsets per group.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LikelihoodGrid {
     /// Level `h` pools blocks of `2^h` cells; level 0 is the likelihood itself.
@@ -403,6 +403,12 @@ impl LikelihoodGrid {
     /// lookups left cannot lift it above `floor`: `headroom[k]` is the most that the lookups
     /// of chunks `k..` ([`CHUNK`] each) can add. Writes each chunk's sum to `chunk_sums`
     /// (whole only when the answer is `Some`) and adds the cells read to `read`.
+    ///
+    /// `level` may be the one above the top (`depth + 1`), for the lookups of a group of
+    /// rotations ([`Self::group_keeps`]): it is not stored, its cell `k` is the max of the top
+    /// level's four at `k`, `k + s`, `k + s · stride` and `k + s · stride + s` (`s =
+    /// 2^depth`), which stay inside the layout (its far padding is `2^depth` wider than the
+    /// window needs).
     #[inline]
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn sum_above(
@@ -415,29 +421,15 @@ impl LikelihoodGrid {
         read: &mut u64,
         chunk_sums: &mut [u64],
     ) -> Option<u64> {
+        let top = self.depth();
         // Every lookup's index plus the shift is inside the level (see `Self::lookup`).
-        let cells = &self.levels[level as usize][shift..];
-        let value = |index: usize| cells[index];
-        sum_above_with(lookups, headroom, floor, read, chunk_sums, value)
-    }
-
-    /// [`Self::sum_above`] at the level above the top, the max of the top level's four cells
-    /// at `k`, `k + s`, `k + s · stride` and `k + s · stride + s` (`s = 2^depth`), for the
-    /// lookups of a group of rotations ([`Self::group_keeps`]): their cells there stay inside
-    /// the layout, whose far padding is `2^depth` wider than the window needs.
-    #[inline]
-    pub(crate) fn sum_above_top(
-        &self,
-        lookups: &[Lookup],
-        headroom: &[u64],
-        shift: usize,
-        floor: u64,
-        read: &mut u64,
-        chunk_sums: &mut [u64],
-    ) -> Option<u64> {
-        let s = 1usize << self.depth();
+        let cells = &self.levels[level.min(top) as usize][shift..];
+        if level <= top {
+            let value = |index: usize| cells[index];
+            return sum_above_with(lookups, headroom, floor, read, chunk_sums, value);
+        }
+        let s = 1usize << top;
         let ahead = [s, s * self.stride, s * self.stride + s];
-        let cells = &self.levels[self.depth() as usize][shift..];
         let value = |index: usize| {
             let block = &cells[index..=index + ahead[2]];
             block[0]
@@ -685,7 +677,7 @@ mod tests {
                             .unwrap();
                         let shift = grid.shift([dx, dy]);
                         let sum = grid
-                            .sum_above_top(&[lookup], &[u64::MAX], shift, 0, &mut 0, &mut [0])
+                            .sum_above(depth + 1, &[lookup], &[u64::MAX], shift, 0, &mut 0, &mut [0])
                             .unwrap_or(0);
                         prop_assert_eq!(sum, expected, "above the top, cell {} {} offset {} {}", i, j, dx, dy);
                     }

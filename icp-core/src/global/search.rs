@@ -232,7 +232,8 @@ impl Search<'_> {
                 full_scale_headroom(group, headroom);
                 passed.clear();
                 for (b, &offset) in blocks.iter().enumerate() {
-                    let above = grid.sum_above_top(
+                    let above = grid.sum_above(
+                        top_level + 1,
                         group,
                         headroom,
                         grid.shift(offset),
