@@ -125,7 +125,7 @@ pub struct FlaggedStep {
 
 /// Flags reference steps whose speed or yaw rate departs from what their neighbours predict
 /// (± [`PLAUSIBILITY_HALF_WINDOW`] steps: their median, or near an end of the series their
-/// robust line; see [`predicted`]) by more than [`PLAUSIBILITY_THRESHOLD_SIGMA`] robust standard
+/// robust line; see `predicted`) by more than [`PLAUSIBILITY_THRESHOLD_SIGMA`] robust standard
 /// deviations of all such departures. A repeated position (zero speed between moving
 /// neighbours) is caught this way, at the ends of the series too.
 pub fn flag_implausible(pairs: &[ScanPair], sog_mps: &[f64], rot_dps: &[f64]) -> Vec<FlaggedStep> {

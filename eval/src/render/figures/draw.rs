@@ -1,4 +1,4 @@
-//! What every figure shares: the [`Figure`] trait (a figure draws on any plotters backend),
+//! What every figure shares: the `Figure` trait (a figure draws on any plotters backend),
 //! writing one as PNG and SVG, the series' styles, legends and axes.
 
 use plotters::coord::Shift;

@@ -14,7 +14,7 @@
 //!   does not have is an error (a 1-based file, or another log's).
 //!
 //! A file whose first line holds a comma is the CSV (its header checked), any other TUM.
-//! Readers: [`tum`] and [`pair_csv`].
+//! Readers: `tum` and `pair_csv`.
 //!
 //! `icp-eval run` and `compare` take `--estimates NAME=FILE` ([`EstimatesSpec`]); the runner
 //! assesses each estimate at its pose like a registration ([`icp_core::assess()`]: the same
