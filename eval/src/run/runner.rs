@@ -247,7 +247,6 @@ pub fn run_from(
     run_blocks(ds, pairs, methods, plan, progress, BLOCK_PAIRS, first)
 }
 
-/// What the registrations of a block need besides the registrar and the pair.
 /// The buffers of one pair's registrations and global search, reused from pair to pair.
 #[derive(Default)]
 struct PairBuffers {
@@ -289,6 +288,7 @@ struct Variant<'a> {
     previous: Option<&'a Previous>,
 }
 
+/// What the registrations of a block need besides the registrar and the pair.
 struct BlockJob<'a> {
     ds: &'a Dataset,
     prepared: &'a PreparedScans<'a>,
@@ -487,9 +487,9 @@ fn run_blocks(
     let mut per_variant: Vec<Vec<PairRun>> = (0..methods.len())
         .map(|_| Vec::with_capacity(pairs.len()))
         .collect();
+    let thread_buffers = ThreadBuffers::new();
     // Where starts chain pairs: the searches of the pairs in flight and their grids' storage,
     // and each variant's registration buffers.
-    let thread_buffers = ThreadBuffers::new();
     let mut chained: Vec<GlobalWorkspace> = Vec::new();
     let mut chained_pools: Vec<GridPool> = Vec::new();
     let mut variant_workspaces: Vec<Workspace> = Vec::new();
@@ -581,13 +581,7 @@ fn run_blocks(
                     }
                 }
                 for ((searched, info), pool) in built.into_iter().zip(&mut chained_pools) {
-                    pair_searches.extend(info.map(|info| PairSearch {
-                        time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
-                        ..info
-                    }));
-                    if let Some(searched) = searched {
-                        searched.recycle(pool);
-                    }
+                    pair_searches.extend(finish_search(searched, info, pool));
                 }
             }
             continue;
@@ -631,13 +625,7 @@ fn run_blocks(
                 runs.sort_by_key(|(v, _)| *v);
                 let mut runs: Vec<PairRun> = runs.into_iter().map(|(_, run)| run).collect();
                 runs.extend(assess_all(i, pair, searched.as_ref()));
-                let search = search.map(|info| PairSearch {
-                    time_us: info.time_us + searched.as_ref().map_or(0.0, Searched::check_us),
-                    ..info
-                });
-                if let Some(searched) = searched {
-                    searched.recycle(pool);
-                }
+                let search = finish_search(searched, search, pool);
                 *slot.lock().unwrap_or_else(PoisonError::into_inner) = buffers;
                 (runs, search)
             })
@@ -668,6 +656,23 @@ pub(crate) fn distinct_surface_params(
         }
     }
     params
+}
+
+/// A pair's search once its checks are done: its report with the checks' time added, its
+/// grid's storage given back to `pool`.
+fn finish_search(
+    searched: Option<Searched>,
+    info: Option<PairSearch>,
+    pool: &mut GridPool,
+) -> Option<PairSearch> {
+    let check_us = searched.as_ref().map_or(0.0, Searched::check_us);
+    if let Some(searched) = searched {
+        searched.recycle(pool);
+    }
+    info.map(|info| PairSearch {
+        time_us: info.time_us + check_us,
+        ..info
+    })
 }
 
 /// What a constant-velocity start of the next pair takes from `run` of `pair`: its estimate

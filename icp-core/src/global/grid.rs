@@ -422,7 +422,7 @@ impl LikelihoodGrid {
         chunk_sums: &mut [u64],
     ) -> Option<u64> {
         let top = self.depth();
-        // Every lookup's index plus the shift is inside the level (see `Self::lookup`).
+        // Every lookup's index plus the shift is inside the level (see `Self::lookups`).
         let cells = &self.levels[level.min(top) as usize][shift..];
         if level <= top {
             let value = |index: usize| cells[index];
