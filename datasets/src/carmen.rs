@@ -4,15 +4,21 @@
 //!
 //! Ranges are metres; bearings span the field of view counter-clockwise from its right edge,
 //! `n` beams over 180° by default. A reading at or beyond the maximum range is a no-return.
-//! Other message types (`ODOM`, `PARAM`, `RLASER`, …) and `#` comments are skipped and counted.
+//! `ODOM x y θ tv rv accel ipc_timestamp …` lines are read as the robot's odometry stream
+//! (below). Other message types (`PARAM`, `RLASER`, …) and `#` comments are skipped and
+//! counted.
 //!
 //! `x y θ` is the laser's own pose (so the scanner offset is the identity): the reference, by
 //! default [`ReferenceKind::SlamCorrected`] as in the public "corrected" logs
 //! ([`CarmenOptions::reference_kind`] says otherwise for a raw log, whose poses are
 //! odometry). `odom_x odom_y odom_θ` is the robot's odometry pose, kept as the odometry
 //! channel; the laser sits `robot_frontlaser_offset` ahead of it (a `PARAM` line, not read).
-//! Some corrected logs overwrite the odometry with the corrected poses (`aces`): the loader
-//! then warns that there is no independent odometry
+//! Some corrected logs overwrite the odometry fields with the corrected poses (`aces`). Then,
+//! when the `ODOM` lines cover every scan, the odometry channel is their own motion instead
+//! (see the `odom_lines` module: increments chained, re-anchoring lines dropped, interpolated
+//! over at most [`MAX_ODOM_GAP_S`](crate::MAX_ODOM_GAP_S)), and the loader says so
+//! ([`LoadWarning::OdometryFromOdomLines`](crate::LoadWarning)); otherwise it warns that
+//! there is no independent odometry
 //! ([`LoadWarning::OdometryEqualsReference`](crate::LoadWarning)).
 
 use std::io::{BufRead, BufReader, Read};
@@ -24,6 +30,7 @@ use sha2::{Digest, Sha256};
 use crate::dataset::{
     nominal_dt_s, Dataset, FileProvenance, Pose2, Provenance, ReferenceKind, ReferencePose,
 };
+use crate::odom_lines::OdomLines;
 use crate::{DatasetError, LoadWarning};
 
 /// The laser's angular layout and range limit.
@@ -71,11 +78,13 @@ pub const SICK_LMS2XX: SensorModel = SensorModel {
     sigma_alpha_rad: 0.5 * std::f64::consts::PI / 180.0,
 };
 
-/// What a parse skipped.
+/// What a parse read and skipped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CarmenCounts {
     /// `FLASER` lines read.
     pub scans: usize,
+    /// `ODOM` lines read.
+    pub odom_lines: usize,
     /// Other lines (other messages, comments, blank lines) skipped.
     pub skipped_lines: usize,
 }
@@ -134,6 +143,7 @@ pub fn parse<R: Read>(
     let mut scans = Vec::new();
     let mut reference = Vec::new();
     let mut odometry = Vec::new();
+    let mut odom_lines = OdomLines::default();
     let mut counts = CarmenCounts::default();
     let at = |line: usize, what: String| DatasetError::Parse {
         path: path.to_path_buf(),
@@ -144,7 +154,8 @@ pub fn parse<R: Read>(
         let n_line = i + 1;
         let line = line.map_err(|e| at(n_line, format!("unreadable line: {e}")))?;
         let mut fields = line.split_whitespace();
-        if fields.next() != Some("FLASER") {
+        let tag = fields.next();
+        if tag != Some("FLASER") && tag != Some("ODOM") {
             counts.skipped_lines += 1;
             continue;
         }
@@ -162,6 +173,17 @@ pub fn parse<R: Read>(
                 Err(at(n_line, format!("{what} is not finite: {f:?}")))
             }
         };
+        if tag == Some("ODOM") {
+            // x y θ tv rv accel ipc_timestamp (host and logger timestamp not read).
+            let pose = Pose2 {
+                x_m: num(0, "odom x")?,
+                y_m: num(1, "odom y")?,
+                yaw_rad: num(2, "odom theta")?,
+            };
+            odom_lines.push(num(6, "odom ipc_timestamp")?, pose);
+            counts.odom_lines += 1;
+            continue;
+        }
         let n_f = num(0, "the reading count")?;
         if n_f < 0.0 || n_f.fract() != 0.0 || n_f > 100_000.0 {
             return Err(at(
@@ -230,47 +252,71 @@ pub fn parse<R: Read>(
         });
     }
     let (dt_s, assumed) = nominal_dt_s(&scans);
-    Ok((
-        Dataset {
-            provenance: Provenance {
-                name: format!(
-                    "carmen:{}",
-                    path.file_name().map_or_else(
-                        || path.display().to_string(),
-                        |f| f.to_string_lossy().into_owned()
-                    )
-                ),
-                description: format!(
-                    "CARMEN log {} ({} FLASER scans, {}° field of view)",
-                    path.display(),
-                    counts.scans,
-                    options.fov_deg
-                ),
-                files: Vec::new(),
-            },
-            scans,
-            reference: Some(reference),
-            reference_kind: Some(options.reference_kind),
-            odometry: Some(odometry),
-            scanner_offset: Some(Pose2::IDENTITY),
-            reference_heading_sense: BearingSense::CounterClockwise,
-            // A FLASER line does not say how long its sweep took.
-            sweep_s: None,
-            dt_s,
-            sensor: options.sensor,
-            bearing_sense: BearingSense::CounterClockwise,
-            // A CARMEN log carries no noise figures.
-            warnings: assumed
-                .into_iter()
-                .chain(
-                    (options.sensor == SICK_LMS2XX).then(|| LoadWarning::AssumedSensorModel {
-                        sensor: SICK_LMS2XX,
-                        of: "a SICK LMS 2xx".to_owned(),
-                    }),
+    let times_s: Vec<Option<f64>> = scans.iter().map(Scan::timestamp_s).collect();
+    let ds = Dataset {
+        provenance: Provenance {
+            name: format!(
+                "carmen:{}",
+                path.file_name().map_or_else(
+                    || path.display().to_string(),
+                    |f| f.to_string_lossy().into_owned()
                 )
-                .collect(),
-        }
-        .checked(),
-        counts,
-    ))
+            ),
+            description: format!(
+                "CARMEN log {} ({} FLASER scans, {}° field of view)",
+                path.display(),
+                counts.scans,
+                options.fov_deg
+            ),
+            files: Vec::new(),
+        },
+        scans,
+        reference: Some(reference),
+        reference_kind: Some(options.reference_kind),
+        odometry: Some(odometry),
+        scanner_offset: Some(Pose2::IDENTITY),
+        reference_heading_sense: BearingSense::CounterClockwise,
+        // A FLASER line does not say how long its sweep took.
+        sweep_s: None,
+        dt_s,
+        sensor: options.sensor,
+        bearing_sense: BearingSense::CounterClockwise,
+        // A CARMEN log carries no noise figures.
+        warnings: assumed
+            .into_iter()
+            .chain(
+                (options.sensor == SICK_LMS2XX).then(|| LoadWarning::AssumedSensorModel {
+                    sensor: SICK_LMS2XX,
+                    of: "a SICK LMS 2xx".to_owned(),
+                }),
+            )
+            .collect(),
+    }
+    .checked();
+    Ok((with_odom_lines(ds, &odom_lines, &times_s), counts))
+}
+
+/// `ds` with the `ODOM` lines' motion as its odometry when its `FLASER` odometry repeats the
+/// reference and the lines cover every scan with motion of their own (see the module doc).
+fn with_odom_lines(mut ds: Dataset, lines: &OdomLines, times_s: &[Option<f64>]) -> Dataset {
+    let Some(k) = ds
+        .warnings
+        .iter()
+        .position(|w| matches!(w, LoadWarning::OdometryEqualsReference { .. }))
+    else {
+        return ds;
+    };
+    let Some(odometry) = lines.at_each(times_s) else {
+        return ds;
+    };
+    let fields = ds.odometry.replace(odometry);
+    if ds.odometry_equals_reference().is_some() {
+        ds.odometry = fields;
+    } else {
+        ds.warnings[k] = LoadWarning::OdometryFromOdomLines {
+            lines: lines.lines,
+            reanchored: lines.reanchored,
+        };
+    }
+    ds
 }

@@ -111,6 +111,16 @@ pub enum LoadWarning {
         /// Consecutive steps compared.
         steps: usize,
     },
+    /// A CARMEN log's `FLASER` odometry fields repeat the reference, but its `ODOM` lines
+    /// carry the robot's own odometry: the odometry channel is their motion (their increments
+    /// chained, the lines that re-anchor the stream to the corrected poses dropped; see
+    /// the CARMEN loader).
+    OdometryFromOdomLines {
+        /// `ODOM` lines read.
+        lines: usize,
+        /// Those that re-anchored the stream (timestamp not after the line before's).
+        reanchored: usize,
+    },
     /// The median motion between consecutive scans is beyond what a registration started at
     /// the identity is trusted with ([`LARGE_STEP_M`], [`LARGE_TURN_DEG`]).
     LargeSteps {
@@ -203,6 +213,12 @@ impl fmt::Display for LoadWarning {
                 "the odometry equals the reference (all {steps} steps within {} mm and \
                  {SAME_TURN_DEG}°): no independent odometry",
                 SAME_STEP_M * 1e3
+            ),
+            Self::OdometryFromOdomLines { lines, reanchored } => write!(
+                f,
+                "the FLASER lines' odometry repeats the reference: the odometry is the motion \
+                 of the {lines} ODOM lines instead (their increments chained; the {reanchored} \
+                 lines that re-anchor the stream to the corrected poses are not motion)"
             ),
             Self::LargeSteps {
                 median_step_m,
@@ -428,6 +444,16 @@ impl Dataset {
         self
     }
 
+    /// The odometry poses when they are independent of the reference: present, and not
+    /// flagged as a copy of it ([`LoadWarning::OdometryEqualsReference`]).
+    pub fn independent_odometry(&self) -> Option<&[Pose2]> {
+        let copy = self
+            .warnings
+            .iter()
+            .any(|w| matches!(w, LoadWarning::OdometryEqualsReference { .. }));
+        self.odometry.as_deref().filter(|_| !copy)
+    }
+
     /// Sets the nominal scan spacing (a user's `--dt`), which replaces an assumed one.
     pub fn set_dt_s(&mut self, dt_s: f64) -> Result<(), DatasetError> {
         if !(dt_s.is_finite() && dt_s > 0.0) {
@@ -447,7 +473,7 @@ impl Dataset {
     /// channel's relative motion between consecutive scans (so a copy in another frame counts
     /// as equal) within [`SAME_STEP_M`] and [`SAME_TURN_DEG`]. Not tested against a reference
     /// that is not a rigid pose.
-    fn odometry_equals_reference(&self) -> Option<LoadWarning> {
+    pub(crate) fn odometry_equals_reference(&self) -> Option<LoadWarning> {
         let odometry = self.odometry.as_ref()?;
         let reference: Vec<Isometry2<f64>> = self
             .reference

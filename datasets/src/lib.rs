@@ -18,6 +18,7 @@ pub mod dataset;
 pub mod error;
 pub mod marina;
 pub mod matv5;
+mod odom_lines;
 pub mod rosbag;
 pub mod source;
 pub mod synthetic;
@@ -27,4 +28,5 @@ pub use dataset::{
     ReferencePose, ScanPair, SkippedPair,
 };
 pub use error::DatasetError;
+pub use odom_lines::MAX_ODOM_GAP_S;
 pub use source::{open, DatasetSource, SourceError};

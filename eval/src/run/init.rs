@@ -10,7 +10,7 @@
 use std::fmt;
 use std::str::FromStr;
 
-use datasets::{Dataset, LoadWarning, Pose2, ScanPair};
+use datasets::{Dataset, Pose2, ScanPair};
 use icp_core::global::GlobalGuess;
 use nalgebra::{Isometry2, Matrix2};
 use serde::{Deserialize, Serialize};
@@ -170,11 +170,7 @@ impl InitChain {
                 if ds.odometry.is_none() {
                     return Err(unavailable("it has no odometry channel"));
                 }
-                if ds
-                    .warnings
-                    .iter()
-                    .any(|w| matches!(w, LoadWarning::OdometryEqualsReference { .. }))
-                {
+                if ds.independent_odometry().is_none() {
                     return Err(unavailable(
                         "its odometry equals the reference poses (no independent odometry): \
                          a start from it would be the reference motion itself",
@@ -251,7 +247,7 @@ pub fn start(
 /// motion from scan k to scan k+1 seen from k+1, with the scanner at the odometry's point (an
 /// offset between them changes the start by a rotation of the lever arm, which the
 /// registration removes).
-fn odometry_motion(source: &Pose2, reference: &Pose2) -> Isometry2<f64> {
+pub(crate) fn odometry_motion(source: &Pose2, reference: &Pose2) -> Isometry2<f64> {
     reference.isometry().inverse() * source.isometry()
 }
 
