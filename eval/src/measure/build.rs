@@ -10,6 +10,7 @@ use crate::data::{self, scan_time_s, RefMotion};
 use crate::measure::bound;
 use crate::measure::bound::{OverBound, PairBound};
 use crate::measure::consistency;
+use crate::measure::odometry_word::OdometryWord;
 use crate::measure::outcome;
 use crate::measure::outcome::FlagQuality;
 use crate::measure::record::{record, PairRecord};
@@ -169,15 +170,18 @@ pub fn build(
             }
         }
         trajectories.push(chain(ds, pairs, &runs[vi]));
-        summaries.push(summarize(
-            name,
-            &rows,
-            &runs[vi],
-            ds,
-            pairs,
-            trajectories.last().expect("just pushed"),
-            rigid,
-        ));
+        summaries.push(VariantSummary {
+            odometry_on_wrong: OdometryWord::of(&rows, ds, &refs),
+            ..summarize(
+                name,
+                &rows,
+                &runs[vi],
+                ds,
+                pairs,
+                trajectories.last().expect("just pushed"),
+                rigid,
+            )
+        });
         // A reference that is not one rigid frame (GNSS positions beside a separate heading)
         // has no trajectory to align to: no ATE or RPE against it (the note says why).
         if let (Some(kind), Some(summary)) = (reference_tum.filter(|_| rigid), summaries.last_mut())
@@ -368,6 +372,7 @@ fn summarize(
         plausible_reference: error_stats(with_ref.filter(|r| r.ref_plausible)),
         success_rate: outcome::success_rate(rows, rigid),
         flag_quality: FlagQuality::of(rows),
+        odometry_on_wrong: None,
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
         suspect_pairs: flagged(rows, StatusKind::Suspect),

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::measure::bound::{BoundSummary, OverBound};
 use crate::measure::consistency::ConsistencySummary;
 use crate::measure::cycles::{CycleRecord, CycleSummary};
+use crate::measure::odometry_word::OdometryWord;
 use crate::measure::outcome::FlagQuality;
 use crate::measure::record::PairRecord;
 use crate::measure::reference::{FlaggedStep, OffsetEstimate};
@@ -136,6 +137,10 @@ pub struct VariantSummary {
     /// How well the flags pick out the wrong numbers, where the reference is a rigid pose.
     #[serde(default)]
     pub flag_quality: Option<FlagQuality>,
+    /// Odometry's word on the wrong numbers, where the log has odometry of its own (see
+    /// [`crate::measure::odometry_word`]).
+    #[serde(default)]
+    pub odometry_on_wrong: Option<OdometryWord>,
     /// The chained trajectory.
     pub trajectory: TrajectoryStats,
     /// Translation and rotation RMSE as multiples of the Cramér–Rao bound over the registered

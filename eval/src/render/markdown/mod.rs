@@ -297,6 +297,53 @@ fn failures_md(out: &mut String, report: &RunReport) {
             let _ = writeln!(out, "- {} failed on pair {}: {}", v.name, f.pair, f.reason);
         }
     }
+    odometry_word(out, report);
+}
+
+/// Odometry's word on the wrong registrations, where the log has odometry of its own.
+fn odometry_word(out: &mut String, report: &RunReport) {
+    if report
+        .variants
+        .iter()
+        .all(|v| v.odometry_on_wrong.is_none())
+    {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "\nOdometry's word on the wrong registrations (the log's own odometry, independent of \
+         the reference; translations only): it confirms a failure when its step lies within {} m \
+         of the reference's and beyond {} m of the estimate, and sides with the estimate in the \
+         mirror case. Wrong and unflagged are the flags' misses.\n",
+        crate::measure::outcome::SUCCESS_TRANS_M,
+        crate::measure::outcome::WRONG_TRANS_M,
+    );
+    let _ = writeln!(
+        out,
+        "| method | wrong, flagged | confirmed | sides with the estimate | undecided | \
+         wrong, unflagged | confirmed | sides with the estimate | undecided |"
+    );
+    let _ = writeln!(
+        out,
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+    );
+    for v in &report.variants {
+        if let Some(w) = v.odometry_on_wrong {
+            let cells = |x: crate::measure::odometry_word::Verdicts| {
+                format!(
+                    "{} | {} | {} | {}",
+                    x.wrong, x.confirmed, x.sides_with_estimate, x.undecided
+                )
+            };
+            let _ = writeln!(
+                out,
+                "| {} | {} | {} |",
+                v.name,
+                cells(w.flagged),
+                cells(w.unflagged)
+            );
+        }
+    }
 }
 
 /// A time in seconds to the millisecond, without trailing zeros (`0.2`, `2.159`, `1`).
