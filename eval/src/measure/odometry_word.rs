@@ -17,6 +17,12 @@
 //! Counted apart for flagged and unflagged registrations: the unflagged wrong ones are the
 //! flags' misses, and odometry says whether those misses are the registrations' or the
 //! reference's.
+//!
+//! Independent of the laser is not independent of the reference: a SLAM correction may have
+//! used the odometry as its prior, and then the two agree partly by construction. Odometry's
+//! confirmation weighs most where the estimate is far from both (wheels do not slide a metre
+//! along a corridor), and its siding with an estimate is evidence against the reference in
+//! any case.
 
 use datasets::Dataset;
 use nalgebra::Vector2;
