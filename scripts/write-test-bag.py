@@ -85,7 +85,8 @@ def main(out: Path) -> None:
                     angle_min=-math.pi,
                     angle_max=-math.pi + (BEAMS - 1) * (2 * math.pi / BEAMS),
                     angle_increment=2 * math.pi / BEAMS,
-                    time_increment=0.0,
+                    # A 10 Hz scanner's full turn: the sweep is (BEAMS - 1) of these.
+                    time_increment=0.1 / BEAMS,
                     scan_time=0.1,
                     range_min=0.1,
                     range_max=30.0,

@@ -53,6 +53,7 @@ fn harbour_bag(scenario: &Scenario) -> (Dataset, Vec<Msg>) {
             t_s: t,
             angle_min: b0 as f32,
             angle_increment: step as f32,
+            time_increment: 0.0,
             range_min: 0.0,
             range_max,
             ranges: &ranges,
@@ -131,11 +132,17 @@ fn line_motion(t_s: f64) -> (f64, f64, f64) {
 }
 
 fn small_scan(t_s: f64) -> Vec<u8> {
+    small_scan_timed(t_s, 0.0)
+}
+
+/// [`small_scan`] with its readings `time_increment_s` apart.
+fn small_scan_timed(t_s: f64, time_increment_s: f32) -> Vec<u8> {
     let ranges: Vec<f32> = (0..90).map(|k| 5.0 + (k as f32 * 0.1).sin()).collect();
     laser_scan(&LaserScanMsg {
         t_s,
         angle_min: -1.5,
         angle_increment: 0.033,
+        time_increment: time_increment_s,
         range_min: 0.1,
         range_max: 30.0,
         ranges: &ranges,
@@ -219,6 +226,45 @@ fn each_rigid_reference_type_is_interpolated_to_the_scan_stamps() {
 
 /// GNSS fixes along a known track (east 3 m/s, north 4 m/s: 5 m/s on a course 53.13° from east)
 /// become local positions about the first fix, with SOG and COG only.
+/// The sweep is `|time_increment| · (readings − 1)` when every scan states its
+/// `time_increment` (reversed readings count alike), unknown when one leaves it 0 or not
+/// finite; `scan_time` (the time between scans) plays no part.
+#[test]
+fn the_sweep_comes_from_time_increment() {
+    let dir = scratch("sweep");
+    let bag = |name: &str, increment: &dyn Fn(usize) -> f32| {
+        let mut messages: Vec<Msg> = scan_stamps()
+            .into_iter()
+            .enumerate()
+            .map(|(k, t)| (0, t_ns(t), small_scan_timed(t, increment(k))))
+            .collect();
+        for k in 0..20 {
+            let t = 99.95 + 0.25 * k as f64;
+            let (x, y, yaw) = line_motion(t);
+            messages.push((1, t_ns(t), odometry(t, x, y, yaw)));
+        }
+        let path = write(
+            &dir,
+            name,
+            STORAGES[0],
+            &[("/scan", SCAN), ("/odom", ODOM)],
+            &messages,
+        );
+        open(&path, "").unwrap().sweep_s
+    };
+    // 90 readings 1/900 s apart: a 10 Hz scanner's quarter turn.
+    let dt = 1.0f32 / 900.0;
+    let expected = f64::from(dt) * 89.0;
+    assert_eq!(bag("stated", &|_| dt), Some(expected));
+    assert_eq!(
+        bag("reversed", &|k| if k % 2 == 0 { -dt } else { dt }),
+        Some(expected)
+    );
+    assert_eq!(bag("one_unknown", &|k| if k == 7 { 0.0 } else { dt }), None);
+    assert_eq!(bag("nan", &|k| if k == 3 { f32::NAN } else { dt }), None);
+    assert_eq!(bag("unstated", &|_| 0.0), None);
+}
+
 #[test]
 fn nav_sat_fix_gives_local_positions_and_course_over_ground() {
     let (lat0, lon0) = (54.52f64, 18.55f64);
@@ -527,6 +573,7 @@ fn nan_infinite_and_out_of_range_readings_are_counted_no_returns() {
                 t_s: t,
                 angle_min: -1.0,
                 angle_increment: 0.05,
+                time_increment: 0.0,
                 range_min: 0.1,
                 range_max: 30.0,
                 ranges: &all,
@@ -676,6 +723,12 @@ fn bags_written_by_rosbags_are_read() {
             );
             assert!((p.scan_yaw_rad.unwrap() - (psi + std::f64::consts::FRAC_PI_2)).abs() < 1e-9);
         }
+        // time_increment 0.1 s / 360 as float32, over 359 steps.
+        assert_eq!(
+            ds.sweep_s,
+            Some(f64::from((0.1f64 / 360.0) as f32) * 359.0),
+            "{name}"
+        );
         let o = ds.scanner_offset.expect("the offset from /tf_static");
         assert!(
             (o.x_m - 0.5).abs() < 1e-12

@@ -110,6 +110,9 @@ pub struct LaserScan {
     pub angle_min_rad: f64,
     /// Bearing step between readings, radians.
     pub angle_increment_rad: f64,
+    /// `time_increment`: time between two readings, seconds (0 when the driver does not say;
+    /// negative when the readings were taken in the reverse order).
+    pub time_increment_s: f64,
     /// Readings below this are invalid, metres.
     pub range_min_m: f64,
     /// Readings above this are invalid, metres.
@@ -125,7 +128,8 @@ pub fn laser_scan(message: &[u8]) -> Result<LaserScan, CdrError> {
     let angle_min_rad = f64::from(r.f32("angle_min")?);
     let _angle_max = r.f32("angle_max")?;
     let angle_increment_rad = f64::from(r.f32("angle_increment")?);
-    let _time_increment = r.f32("time_increment")?;
+    let time_increment_s = f64::from(r.f32("time_increment")?);
+    // `scan_time` is the time between two scans, not the sweep's: not needed.
     let _scan_time = r.f32("scan_time")?;
     let range_min_m = f64::from(r.f32("range_min")?);
     let range_max_m = f64::from(r.f32("range_max")?);
@@ -139,6 +143,7 @@ pub fn laser_scan(message: &[u8]) -> Result<LaserScan, CdrError> {
         stamp_s,
         angle_min_rad,
         angle_increment_rad,
+        time_increment_s,
         range_min_m,
         range_max_m,
         ranges_m,

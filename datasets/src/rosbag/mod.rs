@@ -4,7 +4,11 @@
 //! - **Scans**: `sensor_msgs/msg/LaserScan`, bearing `angle_min + k · angle_increment`
 //!   (counter-clockwise about `+z`, REP 103), time `header.stamp`. A reading that is NaN, ±∞,
 //!   below `range_min` or above `range_max` is a no-return; they are counted in
-//!   [`LoadWarning::NoReturnReadings`]. Scans are put in stamp order.
+//!   [`LoadWarning::NoReturnReadings`]. Scans are put in stamp order. The sweep (the
+//!   dataset's `sweep_s`) is `|time_increment| · (readings − 1)`, the median over the scans,
+//!   when every scan gives a finite, non-zero `time_increment`; otherwise it is unknown
+//!   (drivers that do not know write 0). `scan_time` is the time between scans, not the
+//!   sweep's, and is not read.
 //! - **Reference**, interpolated to the scan stamps (linear in position, shortest-arc in yaw):
 //!   `nav_msgs/msg/Odometry`, `geometry_msgs/msg/PoseStamped` or
 //!   `geometry_msgs/msg/PoseWithCovarianceStamped`, rigid poses of a body (yaw from the
@@ -512,10 +516,23 @@ pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Datas
         reference_heading_sense: BearingSense::CounterClockwise,
         dt_s,
         sensor: SensorModel::default(),
-        // LaserScan.scan_time is not decoded yet.
-        sweep_s: None,
+        sweep_s: sweep_s(&laser),
         bearing_sense: BearingSense::CounterClockwise,
         warnings,
     }
     .checked())
+}
+
+/// The sweep of `scans`: the median of `|time_increment| · (readings − 1)`, when every scan
+/// gives a finite, non-zero `time_increment` (see the module doc); `None` otherwise.
+fn sweep_s(scans: &[messages::LaserScan]) -> Option<f64> {
+    let mut sweeps: Vec<f64> = scans
+        .iter()
+        .map(|m| {
+            let dt = m.time_increment_s.abs();
+            (dt.is_finite() && dt > 0.0).then(|| dt * m.ranges_m.len().saturating_sub(1) as f64)
+        })
+        .collect::<Option<_>>()?;
+    sweeps.sort_by(f64::total_cmp);
+    sweeps.get(sweeps.len() / 2).copied()
 }

@@ -98,6 +98,8 @@ pub struct LaserScanMsg<'a> {
     pub t_s: f64,
     pub angle_min: f32,
     pub angle_increment: f32,
+    /// Time between two readings, s (0: the driver does not say).
+    pub time_increment: f32,
     pub range_min: f32,
     pub range_max: f32,
     pub ranges: &'a [f32],
@@ -110,7 +112,7 @@ pub fn laser_scan(m: &LaserScanMsg<'_>) -> Vec<u8> {
         .f32(m.angle_min)
         .f32(m.angle_min + (n - 1.0) * m.angle_increment)
         .f32(m.angle_increment)
-        .f32(0.0)
+        .f32(m.time_increment)
         .f32(0.1)
         .f32(m.range_min)
         .f32(m.range_max)

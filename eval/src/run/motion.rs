@@ -23,8 +23,9 @@
 //! error never widens its own covariance. The neighbours' registration noise enters `Δv` too
 //! (the term is then a little wider than the motion alone makes it).
 //!
-//! `T` is the dataset's [`datasets::Dataset::sweep_s`]: without it (marina, CARMEN and bags do
-//! not state it; a CSV directory's `dataset.json` may) there is no term; a dataset whose returns are instantaneous (the synthetic
+//! `T` is the dataset's [`datasets::Dataset::sweep_s`]: without it (marina and CARMEN do not
+//! state it; a ROS 2 bag does through `LaserScan.time_increment` when its driver fills it, and a
+//! CSV directory's `dataset.json` may) there is no term; a dataset whose returns are instantaneous (the synthetic
 //! `paper` and `marina-like` scenarios) has none either. Chosen on the rough harbour, where the
 //! error of the registrations against the truth regresses on the true `Δv` with coefficients
 //! −0.5 to −0.6 along the diagonal, as the derivation says.
