@@ -224,6 +224,7 @@ pub fn build(
             sensor: Some(ds.sensor),
             odometry: ds.odometry.is_some(),
             scanner_offset: ds.scanner_offset,
+            sweep_s: ds.sweep_s,
         },
         config: RunConfig {
             variants: setup.variants.iter().map(|v| v.spec()).collect(),

@@ -195,6 +195,11 @@ pub struct DatasetInfo {
     /// The scanner's pose relative to the reference point, where known.
     #[serde(default)]
     pub scanner_offset: Option<Pose2>,
+    /// Time from a scan's first return to its last, s, where the data state it (0: every
+    /// return at one instant); the extended covariance's motion term needs it. `None`:
+    /// unknown.
+    #[serde(default)]
+    pub sweep_s: Option<f64>,
 }
 
 /// The reference's trustworthiness.
