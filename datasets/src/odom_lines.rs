@@ -11,9 +11,11 @@
 //! scan's time the chained pose is the sample's at that time, or the line between the two
 //! samples around it when they are at most [`MAX_ODOM_GAP_S`] apart.
 
-use nalgebra::Isometry2;
+use nalgebra::{Isometry2, Vector2};
 
 use crate::dataset::Pose2;
+use crate::rosbag::messages::StampedPose;
+use crate::rosbag::track::interpolate;
 
 /// Longest time between the two `ODOM` samples around a scan that its odometry is
 /// interpolated over, seconds. A guard against bridging a hole in the stream, not an accuracy
@@ -24,10 +26,8 @@ pub const MAX_ODOM_GAP_S: f64 = 1.0;
 /// The chained motion of a stream of `ODOM` lines (see the module doc).
 #[derive(Clone, Debug, Default)]
 pub(crate) struct OdomLines {
-    /// Strictly increasing sample times, seconds.
-    times: Vec<f64>,
-    /// The chained poses at those times.
-    poses: Vec<Isometry2<f64>>,
+    /// The chained poses, at strictly increasing times.
+    chained: Vec<StampedPose>,
     /// The last line's own pose, which the next increment starts from.
     last: Option<Isometry2<f64>>,
     /// Lines read.
@@ -36,19 +36,27 @@ pub(crate) struct OdomLines {
     pub reanchored: usize,
 }
 
+/// `pose` at `stamp_s`.
+fn stamped(stamp_s: f64, pose: &Isometry2<f64>) -> StampedPose {
+    StampedPose {
+        stamp_s,
+        x_m: pose.translation.x,
+        y_m: pose.translation.y,
+        yaw_rad: pose.rotation.angle(),
+    }
+}
+
 impl OdomLines {
     /// Takes the line at time `t_s` with pose `pose`.
     pub(crate) fn push(&mut self, t_s: f64, pose: Pose2) {
         let pose = pose.isometry();
         self.lines += 1;
-        match (self.last, self.times.last(), self.poses.last()) {
-            (None, ..) => {
-                self.times.push(t_s);
-                self.poses.push(pose);
-            }
-            (Some(previous), Some(&t_previous), Some(&chained)) if t_s > t_previous => {
-                self.times.push(t_s);
-                self.poses.push(chained * (previous.inverse() * pose));
+        match (self.last, self.chained.last()) {
+            (None, _) => self.chained.push(stamped(t_s, &pose)),
+            (Some(previous), Some(c)) if t_s > c.stamp_s => {
+                let chained = Isometry2::new(Vector2::new(c.x_m, c.y_m), c.yaw_rad);
+                self.chained
+                    .push(stamped(t_s, &(chained * (previous.inverse() * pose))));
             }
             _ => self.reanchored += 1,
         }
@@ -56,25 +64,21 @@ impl OdomLines {
     }
 
     /// The chained pose at `t_s`: a sample's at that time, else the line between the two
-    /// samples around it when they are at most [`MAX_ODOM_GAP_S`] apart; `None` otherwise.
+    /// samples around it ([`interpolate`]) when they are at most [`MAX_ODOM_GAP_S`] apart;
+    /// `None` otherwise.
     pub(crate) fn at(&self, t_s: f64) -> Option<Pose2> {
-        let k = self.times.partition_point(|&t| t < t_s);
-        let pose = if self.times.get(k) == Some(&t_s) {
-            self.poses[k]
-        } else {
-            let (t0, t1) = (*self.times.get(k.checked_sub(1)?)?, *self.times.get(k)?);
-            if t1 - t0 > MAX_ODOM_GAP_S {
+        let k = self.chained.partition_point(|p| p.stamp_s < t_s);
+        if self.chained.get(k)?.stamp_s != t_s {
+            let before = self.chained.get(k.checked_sub(1)?)?;
+            if self.chained[k].stamp_s - before.stamp_s > MAX_ODOM_GAP_S {
                 return None;
             }
-            let (a, b) = (self.poses[k - 1], self.poses[k]);
-            let u = (t_s - t0) / (t1 - t0);
-            let step = a.inverse() * b;
-            a * Isometry2::new(step.translation.vector * u, step.rotation.angle() * u)
-        };
+        }
+        let p = interpolate(&self.chained, t_s)?;
         Some(Pose2 {
-            x_m: pose.translation.x,
-            y_m: pose.translation.y,
-            yaw_rad: pose.rotation.angle(),
+            x_m: p.x_m,
+            y_m: p.y_m,
+            yaw_rad: p.yaw_rad,
         })
     }
 
