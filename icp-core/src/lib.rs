@@ -76,10 +76,10 @@ pub use assess::assess;
 pub use covariance::Covariance;
 pub use error::{ConfigError, IcpError};
 
-/// The README's Rust examples, compiled and run as doctests so the README stays true.
+/// The Rust examples of docs/schemes.md, compiled and run as doctests so the page stays true.
 #[cfg(doctest)]
-#[doc = include_str!("../../README.md")]
-pub struct ReadmeDoctests;
+#[doc = include_str!("../../docs/schemes.md")]
+pub struct DocsDoctests;
 pub use icp::Icp;
 pub use motion::{BearingSense, MovementParams, MovementSigmas};
 pub use quality::Conditioning;
