@@ -53,6 +53,12 @@ pub(crate) enum Command {
     Compare(CompareArgs),
     /// Compare a run's summary.json with a baseline: exit 0 if nothing got worse beyond the
     /// tolerances, 1 with a table of what regressed, 2 on unusable input.
+    ///
+    /// Every metric of every variant of the baseline is compared with the current run's and
+    /// may move the wrong way by at most max(abs, rel·|baseline|) from the tolerance file
+    /// (--tolerance; without it, the tolerance.json in the baseline's folder, else the
+    /// built-in tolerances); the gate says which tolerances it used. Runs on other data or of
+    /// another schema cannot be compared (exit 2).
     Gate(GateArgs),
     /// The convergence-basin protocol (Pomerleau et al. 2013): each pair registered from
     /// seeded starts around its true motion; success against the start's offset (basin.csv,

@@ -10,6 +10,10 @@ use crate::measure::report::RunReport;
 use crate::measure::report::VariantSummary;
 use crate::measure::stats::Stats;
 
+/// The built-in tolerances: the committed `reports/baseline/tolerance.json` itself, compiled
+/// in, so that the two cannot differ.
+pub const BUILTIN_TOLERANCE: &str = include_str!("../../../reports/baseline/tolerance.json");
+
 /// How far a metric may move the wrong way: `max(abs, rel · |baseline|)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -34,6 +38,19 @@ pub struct Tolerances {
 }
 
 impl Tolerances {
+    /// Reads and [validates](Self::validate) a tolerance file's text.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let t: Self =
+            serde_json::from_str(text).map_err(|e| format!("not a tolerance file: {e}"))?;
+        t.validate()?;
+        Ok(t)
+    }
+
+    /// The built-in tolerances ([`BUILTIN_TOLERANCE`]).
+    pub fn builtin() -> Result<Self, String> {
+        Self::parse(BUILTIN_TOLERANCE)
+    }
+
     /// The tolerance of `key`.
     pub fn of(&self, key: &str) -> Tolerance {
         self.metrics
@@ -278,5 +295,18 @@ mod tests {
             metrics: BTreeMap::new(),
         };
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn the_builtin_tolerance_is_the_committed_file() {
+        let committed = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../reports/baseline/tolerance.json"),
+        )
+        .unwrap();
+        assert_eq!(Tolerances::builtin(), Tolerances::parse(&committed));
+        assert!(Tolerances::builtin().is_ok());
+        assert!(Tolerances::parse(r#"{"default": {"abs": -1, "rel": 0}}"#).is_err());
+        assert!(Tolerances::parse("{").is_err());
     }
 }
