@@ -11,10 +11,13 @@ use eval::render::markdown::gate::outcome_md;
 
 /// The name of a tolerance file beside its baseline.
 pub(crate) const TOLERANCE_FILE: &str = "tolerance.json";
+/// The name of a run's summary in its output directory.
+pub(crate) const SUMMARY_FILE: &str = "summary.json";
 
 #[derive(Args)]
 pub(crate) struct GateArgs {
-    /// The baseline summary.json (e.g. reports/baseline/marina.json).
+    /// The baseline: a summary.json written by `icp-eval baseline` (e.g.
+    /// reports/baseline/marina.json).
     #[arg(long, value_name = "FILE")]
     pub(crate) baseline: PathBuf,
     /// The current run's summary.json.

@@ -1,5 +1,5 @@
 //! The regression gate: compares a current `summary.json` with a committed baseline, metric by
-//! metric, against explicit tolerances.
+//! metric, against explicit tolerances; and what makes a run's summary a usable baseline.
 
 use std::collections::BTreeMap;
 
@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::measure::report::ErrorStats;
 use crate::measure::report::RunReport;
 use crate::measure::report::VariantSummary;
+use crate::measure::report::SCHEMA_VERSION;
 use crate::measure::stats::Stats;
 
 /// The built-in tolerances: the committed `reports/baseline/tolerance.json` itself, compiled
@@ -231,6 +232,78 @@ pub fn gate(baseline: &RunReport, current: &RunReport, tolerances: &Tolerances) 
         regressions,
         notes: notes(baseline, current),
     }
+}
+
+/// Why a run's summary cannot serve as a baseline.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Unusable {
+    /// Written by another layout of `summary.json`: the gate refuses to compare it with the
+    /// runs this tool makes.
+    #[error("it is of summary.json schema {found}, this icp-eval writes schema {expected}: make the run again with this icp-eval")]
+    Schema {
+        /// The summary's.
+        found: u32,
+        /// This tool's.
+        expected: u32,
+    },
+    /// A run on data without a reference: its variants have no error statistics.
+    #[error("{dataset} has no reference, so the run has no error statistics to gate (only counts of registered pairs): make the baseline from a run on data with a reference")]
+    NoReference {
+        /// The dataset.
+        dataset: String,
+    },
+    /// Nothing to gate.
+    #[error("it holds no variant")]
+    NoVariants,
+    /// `--variants` names a variant the run does not have.
+    #[error("it has no variant {unknown}; its variants are {known}")]
+    UnknownVariants {
+        /// The names not found, comma-separated.
+        unknown: String,
+        /// The run's, comma-separated.
+        known: String,
+    },
+}
+
+/// `report` as a baseline: checked to be of this schema, with a reference and variants, and
+/// cut to the variants in `keep` (all when empty). Its configuration and population stay the
+/// whole run's: the statistics kept are over the pairs every variant of the run registered.
+pub fn baseline_of(mut report: RunReport, keep: &[String]) -> Result<RunReport, Unusable> {
+    if report.schema_version != SCHEMA_VERSION {
+        return Err(Unusable::Schema {
+            found: report.schema_version,
+            expected: SCHEMA_VERSION,
+        });
+    }
+    if !report.reference.available {
+        return Err(Unusable::NoReference {
+            dataset: report.dataset.name,
+        });
+    }
+    let names = |vs: &[VariantSummary]| {
+        vs.iter()
+            .map(|v| v.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let unknown: Vec<&str> = keep
+        .iter()
+        .filter(|k| !report.variants.iter().any(|v| &v.name == *k))
+        .map(String::as_str)
+        .collect();
+    if !unknown.is_empty() {
+        return Err(Unusable::UnknownVariants {
+            unknown: unknown.join(", "),
+            known: names(&report.variants),
+        });
+    }
+    if !keep.is_empty() {
+        report.variants.retain(|v| keep.contains(&v.name));
+    }
+    if report.variants.is_empty() {
+        return Err(Unusable::NoVariants);
+    }
+    Ok(report)
 }
 
 /// Why a variant's figures may have moved without the variant changing: its statistics are
