@@ -1,6 +1,7 @@
 //! `icp-eval gate` and `icp-eval baseline`: identical results pass, a worse variant fails
-//! naming the metrics, incomparable or broken input is refused, and a baseline made by
-//! `baseline` gates from any directory with the tolerances beside it or the built-in ones.
+//! naming the metrics, a variant on one side only is one line, incomparable or broken input is
+//! refused, and a baseline made by `baseline` gates from any directory with the tolerances
+//! beside it or the built-in ones.
 
 mod common;
 use common::{icp_eval, icp_eval_command};
@@ -104,16 +105,6 @@ fn identical_passes_and_a_worse_variant_fails_naming_its_metrics() {
     assert!(
         !out.contains("| K_ICP |") && !out.contains("| H_ICP |"),
         "only HD_ICP changed: {out}"
-    );
-
-    // A variant missing from the current run is a regression too.
-    let missing = edited(&summary, &dir.join("missing.json"), |variants| {
-        variants.retain(|v| v["name"] != "H_ICP")
-    });
-    let o = gate(&summary, &missing, &tolerance());
-    assert_eq!(o.status.code(), Some(1));
-    assert!(
-        String::from_utf8_lossy(&o.stdout).contains("| H_ICP | pairs_ok | 59.000000 | missing |")
     );
 }
 
@@ -275,6 +266,62 @@ fn a_baseline_made_by_baseline_gates_from_any_directory() {
     ));
     let o = gate_default(&elsewhere, &base, &summary);
     assert_eq!(o.status.code(), Some(0), "{}", stdout(&o));
+}
+
+#[test]
+fn a_variant_on_one_side_only_is_one_line() {
+    let dir = common::scratch_dir("gate_one_side");
+    let run = tiny_run(&dir.join("run"));
+    let summary = run.join("summary.json");
+    // A scheme of the user's beside the built-ins, not in the baseline: a note, exit 0.
+    let extra = edited(&summary, &dir.join("extra.json"), |variants| {
+        let mut mine = variants[3].clone();
+        mine["name"] = "MY_ICP".into();
+        variants.push(mine);
+    });
+    let o = gate(&summary, &extra, &tolerance());
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("180 metrics checked, 0 regressed"), "{out}");
+    assert_eq!(out.matches("MY_ICP").count(), 1, "{out}");
+    assert!(
+        out.contains(&format!(
+            "\nMY_ICP: in the current run only, not gated (add it to the baseline: icp-eval baseline --from {} --out {})\n",
+            extra.display(),
+            summary.display()
+        )),
+        "{out}"
+    );
+
+    // A built-in the current run lacks: one line, and a failure.
+    let missing = edited(&summary, &dir.join("missing.json"), |variants| {
+        variants.retain(|v| v["name"] != "H_ICP")
+    });
+    let o = gate(&summary, &missing, &tolerance());
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(1), "{out}");
+    assert!(out.contains("135 metrics checked, 0 regressed"), "{out}");
+    assert_eq!(out.matches("H_ICP").count(), 1, "{out}");
+    assert!(
+        out.contains("\nH_ICP: in the baseline only, missing from the current run\n"),
+        "{out}"
+    );
+    assert!(!out.contains("missing |"), "no per-metric rows: {out}");
+
+    // A baseline of some variants gates those, and names the others once each.
+    let base = dir.join("hd.json");
+    let o = baseline(&run, &base, &["--variants", "HD_ICP"]);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = gate_default(&dir, &base, &summary);
+    let out = stdout(&o);
+    assert_eq!(o.status.code(), Some(0), "{out}");
+    assert!(out.contains("45 metrics checked, 0 regressed"), "{out}");
+    for v in ["K_ICP", "H_ICP", "HM_ICP"] {
+        assert!(
+            out.contains(&format!("\n{v}: in the current run only, not gated (add it to the baseline: icp-eval baseline --from {} --out {})\n", run.display(), base.display())),
+            "{out}"
+        );
+    }
 }
 
 /// A folder `dir/name` holding `files` (path, text); returns it.

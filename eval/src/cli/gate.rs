@@ -69,6 +69,20 @@ fn tolerances(args: &GateArgs) -> Result<(Tolerances, String)> {
     Ok((tolerances, format!("{} ({whence})", path.display())))
 }
 
+/// The command that makes a baseline of the current run (`--from` takes the run's directory
+/// or its summary.json).
+fn add_command(args: &GateArgs) -> String {
+    let from = match (args.current.file_name(), args.current.parent()) {
+        (Some(name), Some(dir)) if name == SUMMARY_FILE && !dir.as_os_str().is_empty() => dir,
+        _ => &args.current,
+    };
+    format!(
+        "icp-eval baseline --from {} --out {}",
+        from.display(),
+        args.baseline.display()
+    )
+}
+
 pub(crate) fn gate_cmd(args: GateArgs) -> Result<ExitCode> {
     let baseline = read_report(&args.baseline)?;
     let current = read_report(&args.current)?;
@@ -83,8 +97,8 @@ pub(crate) fn gate_cmd(args: GateArgs) -> Result<ExitCode> {
     let outcome = gate(&baseline, &current, &tolerances);
     let name = &current.dataset.name;
     println!("{name}: tolerance {whence}");
-    print!("{name}: {}", outcome_md(&outcome));
-    Ok(if outcome.regressions.is_empty() {
+    print!("{name}: {}", outcome_md(&outcome, &add_command(&args)));
+    Ok(if outcome.passed() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)

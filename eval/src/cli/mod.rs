@@ -54,12 +54,15 @@ pub(crate) enum Command {
     /// parameter sweep.
     Compare(CompareArgs),
     /// Compare a run's summary.json with a baseline: exit 0 if nothing got worse beyond the
-    /// tolerances, 1 with a table of what regressed, 2 on unusable input.
+    /// tolerances, 1 with what regressed or which baseline variant the run lacks, 2 on
+    /// unusable input.
     ///
-    /// Every metric of every variant of the baseline is compared with the current run's and
+    /// Every metric of every variant that both runs have is compared with the baseline's and
     /// may move the wrong way by at most max(abs, rel·|baseline|) from the tolerance file
     /// (--tolerance; without it, the tolerance.json in the baseline's folder, else the
-    /// built-in tolerances); the gate says which tolerances it used. Runs on other data or of
+    /// built-in tolerances); the gate says which tolerances it used. A variant of the baseline
+    /// that the current run lacks is a failure (exit 1); a variant only in the current run is
+    /// not gated, and the gate says how to add it to the baseline. Runs on other data or of
     /// another schema cannot be compared (exit 2).
     Gate(GateArgs),
     /// Make a baseline for `gate` from a run: check its summary.json, write it to --out and

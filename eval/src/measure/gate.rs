@@ -112,6 +112,20 @@ pub struct GateOutcome {
     /// estimator's file changed).
     #[serde(default)]
     pub notes: Vec<String>,
+    /// Variants of the baseline the current run lacks: a failure (a scheme no longer run must
+    /// not pass unseen).
+    #[serde(default)]
+    pub only_baseline: Vec<String>,
+    /// Variants of the current run the baseline lacks: not gated, and said so.
+    #[serde(default)]
+    pub only_current: Vec<String>,
+}
+
+impl GateOutcome {
+    /// Whether the gate passes: nothing regressed and no baseline variant is missing.
+    pub fn passed(&self) -> bool {
+        self.regressions.is_empty() && self.only_baseline.is_empty()
+    }
 }
 
 /// The gated metrics of one variant: `(key, value, which way is better)`.
@@ -190,17 +204,18 @@ pub fn incompatibility(baseline: &RunReport, current: &RunReport) -> Option<Stri
     None
 }
 
-/// Compares every gated metric of every baseline variant.
+/// Compares every gated metric of every variant both runs have, and names the variants only
+/// one of them has.
 pub fn gate(baseline: &RunReport, current: &RunReport, tolerances: &Tolerances) -> GateOutcome {
     let mut checked = 0;
     let mut regressions = Vec::new();
+    let mut only_baseline = Vec::new();
     for bv in &baseline.variants {
-        let cur = current
-            .variants
-            .iter()
-            .find(|v| v.name == bv.name)
-            .map(metrics)
-            .unwrap_or_default();
+        let Some(cv) = current.variants.iter().find(|v| v.name == bv.name) else {
+            only_baseline.push(bv.name.clone());
+            continue;
+        };
+        let cur = metrics(cv);
         for (key, base, better) in metrics(bv) {
             checked += 1;
             let t = tolerances.of(&key);
@@ -227,10 +242,18 @@ pub fn gate(baseline: &RunReport, current: &RunReport, tolerances: &Tolerances) 
             }
         }
     }
+    let only_current = current
+        .variants
+        .iter()
+        .filter(|c| !baseline.variants.iter().any(|b| b.name == c.name))
+        .map(|c| c.name.clone())
+        .collect();
     GateOutcome {
         checked,
         regressions,
         notes: notes(baseline, current),
+        only_baseline,
+        only_current,
     }
 }
 
