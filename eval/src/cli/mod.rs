@@ -1,6 +1,7 @@
 //! The command line: one file per command with its arguments; [`Cli`] gathers them and
 //! [`run()`] dispatches.
 
+pub mod baseline;
 pub mod basin;
 pub mod common;
 pub mod compare;
@@ -23,6 +24,7 @@ use eval::run::init::MODES;
 use icp_core::matching::MATCHERS;
 use icp_core::variants::builtin_names;
 
+use crate::cli::baseline::BaselineArgs;
 use crate::cli::basin::BasinArgs;
 use crate::cli::compare::CompareArgs;
 use crate::cli::gate::GateArgs;
@@ -52,8 +54,26 @@ pub(crate) enum Command {
     /// parameter sweep.
     Compare(CompareArgs),
     /// Compare a run's summary.json with a baseline: exit 0 if nothing got worse beyond the
-    /// tolerances, 1 with a table of what regressed, 2 on unusable input.
+    /// tolerances, 1 with what regressed or which baseline variant the run lacks, 2 on
+    /// unusable input.
+    ///
+    /// Every metric of every variant that both runs have is compared with the baseline's and
+    /// may move the wrong way by at most max(abs, rel·|baseline|) from the tolerance file
+    /// (--tolerance; without it, the tolerance.json in the baseline's folder, else the
+    /// built-in tolerances); the gate says which tolerances it used. A variant of the baseline
+    /// that the current run lacks is a failure (exit 1); a variant only in the current run is
+    /// not gated, and the gate says how to add it to the baseline. Runs on other data or of
+    /// another schema cannot be compared (exit 2).
     Gate(GateArgs),
+    /// Make a baseline for `gate` from a run: check its summary.json, write it to --out and
+    /// put the built-in tolerances beside it unless a tolerance.json is there.
+    ///
+    /// The run must be of this icp-eval's summary schema, on data with a reference (a run
+    /// without one has no error statistics to gate) and hold at least one variant; otherwise
+    /// nothing is written and the exit code is 2. Commit the baseline and its tolerance.json,
+    /// then gate later runs of the same data and variants against it: icp-eval gate
+    /// --baseline FILE --current RUN_DIR/summary.json.
+    Baseline(BaselineArgs),
     /// The convergence-basin protocol (Pomerleau et al. 2013): each pair registered from
     /// seeded starts around its true motion; success against the start's offset (basin.csv,
     /// .json, .md, .png, .svg). Needs a rigid reference.
@@ -124,6 +144,7 @@ pub(crate) fn run(cli: Cli) -> Result<ExitCode> {
         Command::Run(args) => run::run_one(args),
         Command::Compare(args) => compare::compare_cmd(args),
         Command::Gate(args) => gate::gate_cmd(args),
+        Command::Baseline(args) => baseline::baseline_cmd(args),
         Command::Basin(args) => basin::basin_cmd(args),
         Command::Synth(args) => synth::synth(args),
         Command::Scaling(args) => scaling::scaling(args),

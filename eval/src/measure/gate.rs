@@ -1,5 +1,5 @@
 //! The regression gate: compares a current `summary.json` with a committed baseline, metric by
-//! metric, against explicit tolerances.
+//! metric, against explicit tolerances; and what makes a run's summary a usable baseline.
 
 use std::collections::BTreeMap;
 
@@ -8,7 +8,12 @@ use serde::{Deserialize, Serialize};
 use crate::measure::report::ErrorStats;
 use crate::measure::report::RunReport;
 use crate::measure::report::VariantSummary;
+use crate::measure::report::SCHEMA_VERSION;
 use crate::measure::stats::Stats;
+
+/// The built-in tolerances: the committed `reports/baseline/tolerance.json` itself, compiled
+/// in, so that the two cannot differ.
+pub const BUILTIN_TOLERANCE: &str = include_str!("../../../reports/baseline/tolerance.json");
 
 /// How far a metric may move the wrong way: `max(abs, rel · |baseline|)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -34,6 +39,19 @@ pub struct Tolerances {
 }
 
 impl Tolerances {
+    /// Reads and [validates](Self::validate) a tolerance file's text.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let t: Self =
+            serde_json::from_str(text).map_err(|e| format!("not a tolerance file: {e}"))?;
+        t.validate()?;
+        Ok(t)
+    }
+
+    /// The built-in tolerances ([`BUILTIN_TOLERANCE`]).
+    pub fn builtin() -> Result<Self, String> {
+        Self::parse(BUILTIN_TOLERANCE)
+    }
+
     /// The tolerance of `key`.
     pub fn of(&self, key: &str) -> Tolerance {
         self.metrics
@@ -94,6 +112,20 @@ pub struct GateOutcome {
     /// estimator's file changed).
     #[serde(default)]
     pub notes: Vec<String>,
+    /// Variants of the baseline the current run lacks: a failure (a scheme no longer run must
+    /// not pass unseen).
+    #[serde(default)]
+    pub only_baseline: Vec<String>,
+    /// Variants of the current run the baseline lacks: not gated, and said so.
+    #[serde(default)]
+    pub only_current: Vec<String>,
+}
+
+impl GateOutcome {
+    /// Whether the gate passes: nothing regressed and no baseline variant is missing.
+    pub fn passed(&self) -> bool {
+        self.regressions.is_empty() && self.only_baseline.is_empty()
+    }
 }
 
 /// The gated metrics of one variant: `(key, value, which way is better)`.
@@ -172,17 +204,18 @@ pub fn incompatibility(baseline: &RunReport, current: &RunReport) -> Option<Stri
     None
 }
 
-/// Compares every gated metric of every baseline variant.
+/// Compares every gated metric of every variant both runs have, and names the variants only
+/// one of them has.
 pub fn gate(baseline: &RunReport, current: &RunReport, tolerances: &Tolerances) -> GateOutcome {
     let mut checked = 0;
     let mut regressions = Vec::new();
+    let mut only_baseline = Vec::new();
     for bv in &baseline.variants {
-        let cur = current
-            .variants
-            .iter()
-            .find(|v| v.name == bv.name)
-            .map(metrics)
-            .unwrap_or_default();
+        let Some(cv) = current.variants.iter().find(|v| v.name == bv.name) else {
+            only_baseline.push(bv.name.clone());
+            continue;
+        };
+        let cur = metrics(cv);
         for (key, base, better) in metrics(bv) {
             checked += 1;
             let t = tolerances.of(&key);
@@ -209,11 +242,91 @@ pub fn gate(baseline: &RunReport, current: &RunReport, tolerances: &Tolerances) 
             }
         }
     }
+    let only_current = current
+        .variants
+        .iter()
+        .filter(|c| !baseline.variants.iter().any(|b| b.name == c.name))
+        .map(|c| c.name.clone())
+        .collect();
     GateOutcome {
         checked,
         regressions,
         notes: notes(baseline, current),
+        only_baseline,
+        only_current,
     }
+}
+
+/// Why a run's summary cannot serve as a baseline.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Unusable {
+    /// Written by another layout of `summary.json`: the gate refuses to compare it with the
+    /// runs this tool makes.
+    #[error("it is of summary.json schema {found}, this icp-eval writes schema {expected}: make the run again with this icp-eval")]
+    Schema {
+        /// The summary's.
+        found: u32,
+        /// This tool's.
+        expected: u32,
+    },
+    /// A run on data without a reference: its variants have no error statistics.
+    #[error("{dataset} has no reference, so the run has no error statistics to gate (only counts of registered pairs): make the baseline from a run on data with a reference")]
+    NoReference {
+        /// The dataset.
+        dataset: String,
+    },
+    /// Nothing to gate.
+    #[error("it holds no variant")]
+    NoVariants,
+    /// `--variants` names a variant the run does not have.
+    #[error("it has no variant {unknown}; its variants are {known}")]
+    UnknownVariants {
+        /// The names not found, comma-separated.
+        unknown: String,
+        /// The run's, comma-separated.
+        known: String,
+    },
+}
+
+/// `report` as a baseline: checked to be of this schema, with a reference and variants, and
+/// cut to the variants in `keep` (all when empty). Its configuration and population stay the
+/// whole run's: the statistics kept are over the pairs every variant of the run registered.
+pub fn baseline_of(mut report: RunReport, keep: &[String]) -> Result<RunReport, Unusable> {
+    if report.schema_version != SCHEMA_VERSION {
+        return Err(Unusable::Schema {
+            found: report.schema_version,
+            expected: SCHEMA_VERSION,
+        });
+    }
+    if !report.reference.available {
+        return Err(Unusable::NoReference {
+            dataset: report.dataset.name,
+        });
+    }
+    let names = |vs: &[VariantSummary]| {
+        vs.iter()
+            .map(|v| v.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let unknown: Vec<&str> = keep
+        .iter()
+        .filter(|k| !report.variants.iter().any(|v| &v.name == *k))
+        .map(String::as_str)
+        .collect();
+    if !unknown.is_empty() {
+        return Err(Unusable::UnknownVariants {
+            unknown: unknown.join(", "),
+            known: names(&report.variants),
+        });
+    }
+    if !keep.is_empty() {
+        report.variants.retain(|v| keep.contains(&v.name));
+    }
+    if report.variants.is_empty() {
+        return Err(Unusable::NoVariants);
+    }
+    Ok(report)
 }
 
 /// Why a variant's figures may have moved without the variant changing: its statistics are
@@ -278,5 +391,18 @@ mod tests {
             metrics: BTreeMap::new(),
         };
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn the_builtin_tolerance_is_the_committed_file() {
+        let committed = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../reports/baseline/tolerance.json"),
+        )
+        .unwrap();
+        assert_eq!(Tolerances::builtin(), Tolerances::parse(&committed));
+        assert!(Tolerances::builtin().is_ok());
+        assert!(Tolerances::parse(r#"{"default": {"abs": -1, "rel": 0}}"#).is_err());
+        assert!(Tolerances::parse("{").is_err());
     }
 }

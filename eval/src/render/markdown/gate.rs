@@ -2,8 +2,10 @@
 
 use crate::measure::gate::GateOutcome;
 
-/// A readable table of the outcome.
-pub fn outcome_md(outcome: &GateOutcome) -> String {
+/// A readable account of the outcome: the count, the notes, one line per variant only one run
+/// has (`add` is the command that makes a baseline of the current run, for those only in it),
+/// and a table of what regressed.
+pub fn outcome_md(outcome: &GateOutcome, add: &str) -> String {
     use std::fmt::Write as _;
     let mut s = format!(
         "{} metrics checked, {} regressed\n",
@@ -12,6 +14,15 @@ pub fn outcome_md(outcome: &GateOutcome) -> String {
     );
     for n in &outcome.notes {
         let _ = writeln!(s, "note: {n}");
+    }
+    for v in &outcome.only_baseline {
+        let _ = writeln!(s, "{v}: in the baseline only, missing from the current run");
+    }
+    for v in &outcome.only_current {
+        let _ = writeln!(
+            s,
+            "{v}: in the current run only, not gated (add it to the baseline: {add})"
+        );
     }
     if !outcome.regressions.is_empty() {
         let _ = writeln!(s, "\n| variant | metric | baseline | current | allowed |\n| --- | --- | ---: | ---: | ---: |");
