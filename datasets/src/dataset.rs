@@ -193,6 +193,22 @@ pub enum LoadWarning {
         /// Why, naming the frames.
         reason: String,
     },
+    /// A scan with fewer readings (returns and no-returns) than the count more than half the
+    /// scans share: a file cut inside that scan (a CSV's last scan cut at a line boundary), or
+    /// a scan of another setting (a CARMEN line with another reading count). The first such
+    /// scan is named.
+    ShortScan {
+        /// The first scan with fewer readings.
+        scan: usize,
+        /// Its readings.
+        readings: usize,
+        /// The readings of the scans before and after it, where there are such scans.
+        neighbour_readings: Vec<usize>,
+        /// The reading count more than half the scans share.
+        usual_readings: usize,
+        /// Scans with fewer readings than that, this one included.
+        scans: usize,
+    },
 }
 
 /// Which pose channel of a dataset a figure was measured on.
@@ -286,6 +302,39 @@ impl fmt::Display for LoadWarning {
                 "{messages} reference message(s) without a usable pose (non-finite, zero \
                  quaternion, or no GNSS fix) were skipped"
             ),
+            Self::ShortScan {
+                scan,
+                readings,
+                neighbour_readings,
+                usual_readings,
+                scans,
+            } => {
+                let neighbours: Vec<String> = [scan.checked_sub(1), Some(scan + 1)]
+                    .into_iter()
+                    .flatten()
+                    .zip(neighbour_readings)
+                    .map(|(k, n)| format!("{n} (scan {k})"))
+                    .collect();
+                let (whose, have) = if neighbours.len() == 1 {
+                    ("neighbour", "has")
+                } else {
+                    ("neighbours", "have")
+                };
+                write!(
+                    f,
+                    "scan {scan} has {readings} readings where its {whose} {have} {} and more \
+                     than half the scans {usual_readings}: was the file cut inside it?",
+                    neighbours.join(" and ")
+                )?;
+                if *scans > 1 {
+                    write!(
+                        f,
+                        " ({} more scan(s) have fewer than {usual_readings})",
+                        scans - 1
+                    )?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -432,13 +481,14 @@ pub const MIN_RETURNS: usize = icp_core::scan::MIN_POINTS;
 
 impl Dataset {
     /// The dataset with the warnings every loader's output is checked for appended:
-    /// [`LoadWarning::OdometryEqualsReference`], [`LoadWarning::LargeSteps`] and
-    /// [`LoadWarning::NonIncreasingTimestamps`].
+    /// [`LoadWarning::OdometryEqualsReference`], [`LoadWarning::LargeSteps`],
+    /// [`LoadWarning::NonIncreasingTimestamps`] and [`LoadWarning::ShortScan`].
     pub fn checked(mut self) -> Self {
         let found = [
             self.odometry_equals_reference(),
             self.large_steps(),
             self.non_increasing_timestamps(),
+            self.short_scan(),
         ];
         self.warnings.extend(found.into_iter().flatten());
         self
@@ -543,6 +593,37 @@ impl Dataset {
         Some(LoadWarning::NonIncreasingTimestamps {
             pairs: bad.len(),
             first_scan,
+        })
+    }
+
+    /// The warning when more than half the scans share a reading count (returns and
+    /// no-returns: a scanner's fixed count) and some scan has fewer.
+    fn short_scan(&self) -> Option<LoadWarning> {
+        let readings: Vec<usize> = self
+            .scans
+            .iter()
+            .map(|s| s.len() + s.no_returns())
+            .collect();
+        let mut sorted = readings.clone();
+        sorted.sort_unstable();
+        // A count more than half the scans share is their median.
+        let usual_readings = *sorted.get(sorted.len() / 2)?;
+        let sharing = readings.iter().filter(|&&r| r == usual_readings).count();
+        if 2 * sharing <= readings.len() {
+            return None;
+        }
+        let mut short = (0..readings.len()).filter(|&k| readings[k] < usual_readings);
+        let scan = short.next()?;
+        Some(LoadWarning::ShortScan {
+            scan,
+            readings: readings[scan],
+            neighbour_readings: [scan.checked_sub(1), Some(scan + 1)]
+                .into_iter()
+                .flatten()
+                .filter_map(|k| readings.get(k).copied())
+                .collect(),
+            usual_readings,
+            scans: 1 + short.count(),
         })
     }
 
