@@ -511,6 +511,7 @@ pub fn parse<R: Read>(
                     }),
             )
             .collect(),
+        first_scans: None,
     };
     if let Some(dt) = meta.dt_s {
         ds.set_dt_s(dt)?;

@@ -394,6 +394,36 @@ pub struct SkippedPair {
     pub reason: String,
 }
 
+/// The first scans of a source, kept by its `scans` option (`icp-eval run --scans N`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FirstScans {
+    /// The scans asked for.
+    pub requested: usize,
+    /// The scans the source has; when fewer than asked for, all of them are kept.
+    pub available: usize,
+}
+
+impl fmt::Display for FirstScans {
+    /// `the first 30 of 440 scans: `--scans 30``, or all of them and why.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Self {
+            requested,
+            available,
+        } = *self;
+        match requested.cmp(&available) {
+            std::cmp::Ordering::Less => write!(
+                f,
+                "the first {requested} of {available} scans: `--scans {requested}`"
+            ),
+            std::cmp::Ordering::Equal => write!(f, "all {available} scans: `--scans {requested}`"),
+            std::cmp::Ordering::Greater => write!(
+                f,
+                "all {available} scans: `--scans {requested}` asks for more than the data have"
+            ),
+        }
+    }
+}
+
 /// Scans in order, with what is known about them.
 #[derive(Clone, Debug)]
 pub struct Dataset {
@@ -430,6 +460,9 @@ pub struct Dataset {
     pub bearing_sense: BearingSense,
     /// What the loader noticed (see [`LoadWarning`]), in the order found.
     pub warnings: Vec<LoadWarning>,
+    /// When only the first scans of the source were kept ([`Dataset::keep_first`]): how many
+    /// were asked for and how many the source has. `None`: every scan the loader read.
+    pub first_scans: Option<FirstScans>,
 }
 
 /// Median step between consecutive poses above which [`LoadWarning::LargeSteps`] is given,
@@ -479,6 +512,20 @@ pub(crate) fn nominal_dt_s(scans: &[Scan]) -> (f64, Option<LoadWarning>) {
 /// Fewest valid returns a scan needs to take part in a pair.
 pub const MIN_RETURNS: usize = icp_core::scan::MIN_POINTS;
 
+impl LoadWarning {
+    /// Whether [`Dataset::checked`] finds it (from the loaded data, whatever the loader),
+    /// rather than a loader (from what it read).
+    fn is_check(&self) -> bool {
+        matches!(
+            self,
+            Self::OdometryEqualsReference { .. }
+                | Self::LargeSteps { .. }
+                | Self::NonIncreasingTimestamps { .. }
+                | Self::ShortScan { .. }
+        )
+    }
+}
+
 impl Dataset {
     /// The dataset with the warnings every loader's output is checked for appended:
     /// [`LoadWarning::OdometryEqualsReference`], [`LoadWarning::LargeSteps`],
@@ -492,6 +539,27 @@ impl Dataset {
         ];
         self.warnings.extend(found.into_iter().flatten());
         self
+    }
+
+    /// The first `n` scans, with their reference and odometry poses, recorded in
+    /// [`Dataset::first_scans`] (all of them when the dataset has fewer). The checks of
+    /// [`Dataset::checked`] are made again on the scans kept; the loader's own warnings
+    /// (what it read from the whole source) stay. The nominal spacing `dt_s` and the
+    /// provenance stay the source's.
+    pub fn keep_first(mut self, n: usize) -> Self {
+        self.first_scans = Some(FirstScans {
+            requested: n,
+            available: self.scans.len(),
+        });
+        self.scans.truncate(n);
+        for poses in self.reference.iter_mut() {
+            poses.truncate(n);
+        }
+        for poses in self.odometry.iter_mut() {
+            poses.truncate(n);
+        }
+        self.warnings.retain(|w| !w.is_check());
+        self.checked()
     }
 
     /// The odometry poses when they are independent of the reference: present, and not

@@ -536,3 +536,66 @@ fn short_scans_inside_a_run_name_both_neighbours() {
         ds.warnings
     );
 }
+
+/// `?scans=N` keeps the first N scans of a file dataset, their poses, odometry and
+/// timestamps with them, and records how many of how many; more than there are keeps all.
+#[test]
+fn the_scans_option_keeps_the_first_scans_and_says_so() {
+    let (ds, dir) = written_with_odometry("csv_first", 6);
+    let first = datasets::open(&format!("csv:{}?scans=3", dir.display())).unwrap();
+    assert_eq!(first.scans, ds.scans[..3]);
+    assert_eq!(
+        first.reference.as_deref(),
+        Some(&ds.reference.as_ref().unwrap()[..3])
+    );
+    assert_eq!(
+        first.odometry.as_deref(),
+        Some(&ds.odometry.as_ref().unwrap()[..3])
+    );
+    assert_eq!(
+        first.first_scans,
+        Some(datasets::FirstScans {
+            requested: 3,
+            available: 6
+        })
+    );
+    assert_eq!(first.consecutive_pairs().0.len(), 2);
+    let all = datasets::open(&format!("csv:{}?scans=100", dir.display())).unwrap();
+    assert_eq!(all.scans, ds.scans);
+    assert_eq!(
+        all.first_scans,
+        Some(datasets::FirstScans {
+            requested: 100,
+            available: 6
+        })
+    );
+    // The checks are made again on the scans kept: a cut scan after them is not theirs.
+    cut_scans_file(&dir, 300);
+    let cut = datasets::open(&format!("csv:{}", dir.display())).unwrap();
+    assert!(matches!(cut.warnings[..], [LoadWarning::ShortScan { .. }]));
+    let kept = datasets::open(&format!("csv:{}?scans=5", dir.display())).unwrap();
+    assert_eq!(kept.warnings, vec![]);
+}
+
+/// `dt_s` changes nothing where every scan has a timestamp (a pair's time step is theirs):
+/// refused, saying so; applied to scans without timestamps.
+#[test]
+fn dt_s_is_refused_where_every_scan_has_a_timestamp() {
+    let (_, dir) = written_with_odometry("csv_dt", 3);
+    assert_eq!(
+        datasets::open(&format!("csv:{}?dt_s=0.5", dir.display()))
+            .unwrap_err()
+            .to_string(),
+        "dataset csv: option dt_s (--dt) does not apply: every scan of synthetic:paper has a \
+         timestamp, and the time between two scans is the difference of theirs"
+    );
+    let untimed = tmp("csv_untimed");
+    std::fs::create_dir_all(&untimed).unwrap();
+    std::fs::write(
+        untimed.join("scans.csv"),
+        "scan,timestamp_s,range_m,bearing_rad\n0,,5,0\n0,,6,1\n0,,7,2\n1,,5,0\n1,,6,1\n1,,7,2\n",
+    )
+    .unwrap();
+    let ds = datasets::open(&format!("csv:{}?dt_s=0.5", untimed.display())).unwrap();
+    assert_eq!(ds.dt_s, 0.5);
+}
