@@ -375,10 +375,12 @@ pub fn table_md(report: &RunReport) -> String {
     };
     let _ = writeln!(
         out,
-        "# {} — {} pairs of {} scans, Δt = {} s{spread}\n",
+        "# {} — {} pairs of {} scans{}, Δt = {} s{spread}\n",
         d.name,
         d.pairs,
         d.scans,
+        d.first_scans
+            .map_or_else(String::new, |f| format!(" ({f})")),
         seconds(d.dt_s)
     );
     let reference = d
