@@ -661,3 +661,39 @@ fn scans_keeps_the_first_scans_of_a_file_dataset_and_the_reports_say_so() {
         serde_json::json!({"requested": 4, "available": 12})
     );
 }
+
+/// Issue 33: a run without a reference ended with rc 0 and tables of "–" and no word why.
+/// table.md, compare.md and the console say that nothing could be scored and where the
+/// estimates are; the exit code stays 0.
+#[test]
+fn a_run_without_a_reference_says_nothing_could_be_scored_and_where_the_motions_are() {
+    let dir = common::scratch_dir("cli_no_reference");
+    let spec = csv_data(&dir, 6, false);
+    let sentence = "Nothing could be scored: synthetic:marina-like has no reference to measure \
+                    the estimates against, so every error, statistic and comparison here is \
+                    empty (–); the estimated motions are in `pairs.csv` (`tx_m`, `ty_m`, \
+                    `theta_deg`, `sog_est_mps`, `dcog_est_deg` per variant and pair) and the \
+                    chained trajectories in `trajectory_<variant>.tum`.";
+    let out = dir.join("run");
+    let (stdout, _) = run_ok(&["run", "--dataset", &spec, "--variants", "HD_ICP"], &out);
+    assert!(stdout.contains(sentence), "{stdout}");
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(table.contains(sentence), "{table}");
+    assert!(read_pairs(&out)
+        .iter()
+        .all(|r| r.sog_est_mps.is_some() && r.sog_err_mps.is_none()));
+    assert!(out.join("trajectory_HD_ICP.tum").is_file());
+    let out = dir.join("compare");
+    let (stdout, _) = run_ok(
+        &["compare", "--dataset", &spec, "--variants", "K_ICP,HD_ICP"],
+        &out,
+    );
+    assert!(stdout.contains(sentence), "{stdout}");
+    let compare = std::fs::read_to_string(out.join("compare.md")).unwrap();
+    assert!(compare.contains(sentence), "{compare}");
+    // With a reference, not a word of it.
+    let spec = csv_data(&dir, 6, true);
+    let out = dir.join("scored");
+    let (stdout, _) = run_ok(&["run", "--dataset", &spec, "--variants", "HD_ICP"], &out);
+    assert!(!stdout.contains("Nothing could be scored"), "{stdout}");
+}

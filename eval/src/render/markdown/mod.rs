@@ -351,6 +351,20 @@ fn seconds(t: f64) -> String {
     trimmed(t, 3)
 }
 
+/// Without a reference, the sentence that says nothing could be scored and where the
+/// estimates are (`table.md`, `compare.md` and the console).
+pub fn no_reference_sentence(report: &RunReport) -> Option<String> {
+    (!report.reference.available).then(|| {
+        format!(
+            "Nothing could be scored: {} has no reference to measure the estimates against, so \
+             every error, statistic and comparison here is empty (–); the estimated motions are \
+             in `pairs.csv` (`tx_m`, `ty_m`, `theta_deg`, `sog_est_mps`, `dcog_est_deg` per \
+             variant and pair) and the chained trajectories in `trajectory_<variant>.tum`.\n",
+            report.dataset.name
+        )
+    })
+}
+
 /// Writes `table.md`.
 pub fn write(out: &mut OutputDir, report: &RunReport) -> Result<(), EvalError> {
     out.write("table.md", table_md(report).as_bytes())
@@ -395,6 +409,9 @@ pub fn table_md(report: &RunReport) -> String {
         )
     });
     let _ = writeln!(out, "Reference: {reference}.{sensor}\n");
+    if let Some(sentence) = no_reference_sentence(report) {
+        let _ = writeln!(out, "{sentence}");
+    }
     reference_floor::floor_line(&mut out, report);
     if !d.warnings.is_empty() {
         let _ = writeln!(out, "Load warnings:\n");
