@@ -25,7 +25,10 @@ pub(crate) struct RunArgs {
     pub(crate) data: DataArgs,
     #[command(flatten)]
     pub(crate) variants: VariantArgs,
-    /// Reference time offset in scans, or `auto` to apply the estimated one.
+    /// Reference time offset to apply: N scans (the reference of pair k + N is compared with
+    /// estimate k), or `auto`: the estimated one (the lag whose correlation beats lag 0 by
+    /// 0.05 or more, else 0). The default, 0, never applies one, whatever table.md says was
+    /// estimated.
     #[arg(long, default_value = "0")]
     pub(crate) reference_offset: OffsetChoice,
     /// Test the reference steps for plausibility (`on`, for measured references such as GNSS)

@@ -9,7 +9,7 @@ use crate::measure::stats::Stats;
 use crate::render::outdir::OutputDir;
 use crate::render::published;
 use crate::run::estimates::TILT_NOTE_DEG;
-use crate::run::setup::ReferenceChecks;
+use crate::run::setup::{OffsetChoice, ReferenceChecks};
 
 pub mod basin;
 pub mod compare;
@@ -346,6 +346,25 @@ fn odometry_word(out: &mut String, report: &RunReport) {
     }
 }
 
+/// Where the offset applied is not the one estimated, what `--reference-offset` did and how
+/// to apply the estimate (empty where they agree).
+fn offset_not_applied(choice: OffsetChoice, estimated: i64, applied: i64) -> String {
+    match choice {
+        _ if estimated == applied => String::new(),
+        OffsetChoice::Fixed(0) => format!(
+            " The estimate is not applied: `--reference-offset 0`, the default, never applies \
+             an offset; `--reference-offset auto` applies the estimate ({estimated} scans), \
+             `--reference-offset N` a lag of N scans."
+        ),
+        OffsetChoice::Fixed(n) => format!(
+            " `--reference-offset {n}` applies that lag whatever is estimated; \
+             `--reference-offset auto` would apply the estimate ({estimated} scans)."
+        ),
+        // `auto` applies the estimate.
+        OffsetChoice::Auto => String::new(),
+    }
+}
+
 /// A time in seconds to the millisecond, without trailing zeros (`0.2`, `2.159`, `1`).
 fn seconds(t: f64) -> String {
     trimmed(t, 3)
@@ -479,7 +498,7 @@ pub fn table_md(report: &RunReport) -> String {
     if let Some(o) = r.offset_estimate {
         let _ = writeln!(
             out,
-            "Reference time offset: estimated {} scans ({:.2} s; correlation score {:.3} vs {:.3} at 0; best lag {} scoring {:.3}, accepted only with a gain of {} or more; from {}); applied {} scans.\n",
+            "Reference time offset: estimated {} scans ({:.2} s; correlation score {:.3} vs {:.3} at 0; best lag {} scoring {:.3}, accepted only with a gain of {} or more; from {}); applied {} scans.{}\n",
             o.scans,
             o.seconds,
             o.score,
@@ -488,7 +507,14 @@ pub fn table_md(report: &RunReport) -> String {
             o.best_score,
             o.min_score_gain,
             r.offset_from_variant.as_deref().unwrap_or("–"),
-            r.offset_applied_scans
+            r.offset_applied_scans,
+            offset_not_applied(r.offset_choice, o.scans, r.offset_applied_scans)
+        );
+    } else if r.offset_applied_scans != 0 {
+        let _ = writeln!(
+            out,
+            "Reference time offset: none estimated (too few pairs, or constant motion); applied {} scans (`--reference-offset {}`).\n",
+            r.offset_applied_scans, r.offset_applied_scans
         );
     }
     if r.available && r.checks == ReferenceChecks::Off {
