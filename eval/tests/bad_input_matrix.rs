@@ -512,6 +512,29 @@ fn scans_that_leave_no_pair() {
     }
 }
 
+#[test]
+fn reference_options_on_a_dataset_without_a_reference() {
+    let csv = csv_dataset("matrix_no_reference_data", false);
+    for (option, value) in [
+        ("--reference-offset", "auto"),
+        ("--reference-checks", "off"),
+    ] {
+        assert_eq!(
+            run_cli(
+                "matrix_no_reference",
+                &["run", "--dataset", &csv, option, value]
+            ),
+            (
+                Some(2),
+                format!(
+                    "error: {option} does not apply to synthetic:paper: it has no reference to \
+                     align in time or check"
+                )
+            )
+        );
+    }
+}
+
 // ---- The sensor model of a run (`--sensor`) ---------------------------------------------------
 
 /// The first line the harness prints on stderr for `run --sensor <text>`, and its exit code.

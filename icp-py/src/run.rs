@@ -15,9 +15,9 @@ use eval::render::write_outputs;
 use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::EstimatesSpec;
 use eval::run::init::InitChain;
-use eval::run::options::override_sensor;
 use eval::run::options::BuiltinOptions;
 use eval::run::options::RunOptions;
+use eval::run::options::{override_sensor, refuse_reference_options};
 use eval::run::setup::GlobalChecks;
 use eval::run::setup::OffsetChoice;
 use eval::run::setup::ReferenceChecks;
@@ -217,6 +217,13 @@ fn run_and_write<'py>(
         override_sensor(&mut ds, overrides)
             .map_err(|e| ConfigError::new_err(format!("option sensor: {e}")))?;
     }
+    let mut given = Vec::new();
+    for key in ["reference_offset", "reference_checks"] {
+        if options.raw(key)?.is_some() {
+            given.push(key);
+        }
+    }
+    refuse_reference_options(&ds, &given).map_err(eval_error)?;
     let builtin_for = |spec: VariantSpec| {
         let name = spec.name.clone();
         builtin_options
