@@ -264,11 +264,13 @@ fn run_and_write<'py>(
                 func.repr()?
             )));
         }
-        let chain = builtin_for(builtin_spec(&base)?)?
+        let spec = builtin_for(builtin_spec(&base)?)?;
+        let weighting = PyWeighting::new(&func, &base, spec.sensor)?;
+        let chain = spec
             .build()
             .map_err(config_error)?
             .named(&name)
-            .with_batch_weighting(PyWeighting::new(&func, &base)?);
+            .with_batch_weighting(weighting);
         python_names.push(name);
         setup.variants.push(Box::new(chain) as Box<dyn Registrar>);
     }
@@ -316,7 +318,11 @@ fn run_and_write<'py>(
 /// Runs `variants` (built-in names, to which the options apply, or specs as dicts, taken as
 /// written; default: the four of Table 1) and the Python `weightings`
 /// (`{NAME: (BASE_VARIANT, fn)}`) over every consecutive pair of the dataset `uri`, writes
-/// the files of `icp-eval run` into `out` and returns `summary.json` as a dict.
+/// the files of `icp-eval run` into `out` and returns `summary.json` as a dict. Each `fn` gets
+/// a dict per iteration (the stub's `Weighting`: ranges and points in metres, bearings and
+/// `rotation_rad` in radians, each return's `src_sigma_r_m`, `dst_sigma_r_m` (metres) and
+/// `src_sigma_alpha_rad`, `dst_sigma_alpha_rad` (radians) from the variant's sensor model) and
+/// returns one weight per pair.
 #[pyfunction]
 #[pyo3(signature = (uri, variants=None, weightings=None, *, out, **options))]
 pub fn run<'py>(
