@@ -264,7 +264,8 @@ impl fmt::Display for LoadWarning {
             Self::AssumedScanSpacing { dt_s } => write!(
                 f,
                 "no usable timestamps and no dt_s given: {dt_s} s between scans assumed \
-                 (speeds and turn rates scale with it; give dt_s or --dt)"
+                 (the speeds and turn rates of scans without a timestamp scale with it: give \
+                 dt_s or --dt; stamped scans keep their own time steps)"
             ),
             Self::NonIncreasingTimestamps { pairs, first_scan } => write!(
                 f,

@@ -401,6 +401,14 @@ fn an_assumed_spacing_and_sensor_model_are_warnings() {
         "scan,timestamp_s,range_m,bearing_rad\n0,,5,0\n0,,6,1\n0,,7,2\n1,,5,0\n1,,6,1\n1,,7,2\n";
     let ds = parse(untimed, None).unwrap();
     assert_eq!(ds.dt_s, 1.0);
+    // The hint names dt_s for the scans it acts on: stamped scans refuse it (they keep their
+    // own time steps).
+    assert_eq!(
+        ds.warnings[0].to_string(),
+        "no usable timestamps and no dt_s given: 1 s between scans assumed (the speeds and turn \
+         rates of scans without a timestamp scale with it: give dt_s or --dt; stamped scans \
+         keep their own time steps)"
+    );
     assert_eq!(
         ds.warnings,
         vec![
