@@ -251,28 +251,35 @@ fn broken_files_are_errors_naming_the_file_and_line() {
     ));
 }
 
+/// A synthetic run of `n` scans with an odometry channel of its own: the reference scaled,
+/// drifting sideways and in yaw (independent: no `odometry_equals_reference`).
+fn with_odometry(n: usize) -> datasets::Dataset {
+    let mut ds = generate(&Scenario {
+        n_scans: n,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    ds.odometry = Some(
+        ds.reference
+            .as_ref()
+            .unwrap()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| Pose2 {
+                x_m: p.x_m * 1.02 + 0.1,
+                y_m: p.y_m - 0.003 * k as f64,
+                yaw_rad: p.scan_yaw_rad.unwrap() + 0.001 * k as f64,
+            })
+            .collect(),
+    );
+    ds
+}
+
 /// `odometry.csv` is optional: written when the dataset has odometry and read back bit for
 /// bit, with the reference kind and scanner offset of `dataset.json`.
 #[test]
 fn odometry_and_reference_metadata_round_trip() {
-    let mut ds = generate(&Scenario {
-        n_scans: 5,
-        ..Scenario::paper()
-    })
-    .unwrap();
-    let odometry: Vec<Pose2> = ds
-        .reference
-        .as_ref()
-        .unwrap()
-        .iter()
-        .enumerate()
-        .map(|(k, p)| Pose2 {
-            x_m: p.x_m * 1.02 + 0.1,
-            y_m: p.y_m - 0.003 * k as f64,
-            yaw_rad: p.scan_yaw_rad.unwrap() + 0.001 * k as f64,
-        })
-        .collect();
-    ds.odometry = Some(odometry);
+    let mut ds = with_odometry(5);
     ds.reference_kind = Some(ReferenceKind::SlamCorrected);
     ds.scanner_offset = Some(Pose2 {
         x_m: 0.25,
@@ -430,24 +437,7 @@ fn an_assumed_spacing_and_sensor_model_are_warnings() {
 
 /// A synthetic run of `n` scans with independent odometry, written as a CSV directory named `name`.
 fn written_with_odometry(name: &str, n: usize) -> (datasets::Dataset, PathBuf) {
-    let mut ds = generate(&Scenario {
-        n_scans: n,
-        ..Scenario::paper()
-    })
-    .unwrap();
-    ds.odometry = Some(
-        ds.reference
-            .as_ref()
-            .unwrap()
-            .iter()
-            .enumerate()
-            .map(|(k, p)| Pose2 {
-                x_m: p.x_m * 1.02 + 0.1,
-                y_m: p.y_m - 0.003 * k as f64,
-                yaw_rad: p.scan_yaw_rad.unwrap() + 0.001 * k as f64,
-            })
-            .collect(),
-    );
+    let ds = with_odometry(n);
     let dir = tmp(name);
     csvdir::write(&dir, &ds).unwrap();
     (ds, dir)

@@ -16,7 +16,7 @@ pub fn compare_md(
         "# Paired comparison — {} ({} pairs)\n",
         report.dataset.name, report.dataset.pairs
     );
-    if let Some(sentence) = crate::render::markdown::no_reference_sentence(report) {
+    if let Some(sentence) = crate::render::markdown::reference::no_reference_sentence(report) {
         let _ = writeln!(s, "{sentence}");
     }
     let _ = writeln!(
