@@ -10,18 +10,34 @@ import numpy.typing as npt
 __version__: str
 
 Pose = Tuple[float, float, float]
-"""(tx_m, ty_m, theta_rad): maps source points into the reference scan's frame."""
+"""(tx_m, ty_m, theta_rad): maps source points into the reference scan's frame. tx_m, ty_m in
+metres; theta_rad in radians (not degrees), from the scan frame's +x towards its +y."""
 
 VariantSpec = Union[str, Mapping[str, Any]]
 """A built-in variant's name (any case) or a variant spec as a dict, like a configuration
 file of configs/variants/."""
 
 Weighting = Callable[[dict[str, Any]], npt.ArrayLike]
-"""Gets one dict per iteration: float64 arrays src_range_m, dst_range_m, src_bearing_rad,
-dst_bearing_rad, src_x_m, src_y_m (the source points moved by the current estimate),
-dst_x_m, dst_y_m, normal_x, normal_y (the reference surface's unit normal, NaN where there is
-none), and the floats rotation_rad (of the current estimate) and int iteration. Returns one
-weight per pair, finite and >= 0."""
+"""Gets one dict per iteration, one value per pair in each float64 array:
+
+- src_range_m, dst_range_m: the ranges of the source return (scan k) and of the reference
+  return (scan k+1), metres;
+- src_bearing_rad, dst_bearing_rad: their bearings, radians, growing in the dataset's
+  bearing_sense;
+- src_x_m, src_y_m: the source point moved by the current estimate into the reference scan's
+  frame, metres;
+- dst_x_m, dst_y_m: the reference point in the reference scan's frame, metres;
+- normal_x, normal_y: the reference surface's unit normal there (unitless, reference scan's
+  frame), NaN where there is none;
+- src_sigma_r_m, dst_sigma_r_m: the range standard deviation of each return, metres, from the
+  variant's sensor model (the run's, after sensor=): sigma_r_const_m + sigma_r_per_m * range
+  (eq. 8 of the paper);
+- src_sigma_alpha_rad, dst_sigma_alpha_rad: the bearing standard deviation of each return,
+  radians (the sensor model's sigma_alpha_rad, the same for every return);
+
+and rotation_rad (float: the rotation of the current estimate t_ref_src, radians) and
+iteration (int, 0 first). Returns one weight per pair, finite and >= 0 (unitless as far as the
+harness is concerned: only their ratios matter to the minimiser)."""
 
 class InputError(ValueError):
     """Input a registration refuses (wrong shape or dtype, NaN bearing, too few points)."""
@@ -48,28 +64,37 @@ class Dataset:
     def name(self) -> str: ...
     @property
     def scans(self) -> list[npt.NDArray[np.float64]]:
-        """One (n, 2) array of range_m, bearing_rad per scan (valid returns only)."""
+        """One (n, 2) array per scan of range_m (metres) and bearing_rad (radians, growing in
+        bearing_sense), valid returns only."""
     @property
     def timestamps(self) -> npt.NDArray[np.float64]:
-        """Each scan's time, s: its own timestamp, else index * dt_s."""
+        """Each scan's time, seconds: its own timestamp, else index * dt_s."""
     @property
-    def dt_s(self) -> float: ...
+    def dt_s(self) -> float:
+        """The nominal time between scans, seconds."""
     @property
     def reference(self) -> npt.NDArray[np.float64] | None:
-        """(n, 3) x_m, y_m, heading_rad per scan, or None."""
+        """(n, 3) per scan: x_m, y_m (metres), heading_rad (radians, growing in
+        reference_heading_sense); or None without a reference."""
     @property
-    def reference_kind(self) -> str | None: ...
+    def reference_kind(self) -> str | None:
+        """What the reference is (e.g. "ground truth (exact)"), or None without one."""
     @property
-    def reference_heading_sense(self) -> str: ...
+    def reference_heading_sense(self) -> str:
+        """counter_clockwise or clockwise."""
     @property
     def bearing_sense(self) -> str:
         """counter_clockwise or clockwise (for motion())."""
     @property
     def sensor(self) -> dict[str, float]:
-        """sigma_r_const_m, sigma_r_per_m, sigma_alpha_rad (what register(sensor=) takes)."""
+        """sigma_r_const_m (metres), sigma_r_per_m (metres per metre of range),
+        sigma_alpha_rad (radians): sigma_r = sigma_r_const_m + sigma_r_per_m * range (what
+        register(sensor=) takes)."""
     @property
-    def warnings(self) -> list[str]: ...
-    def __len__(self) -> int: ...
+    def warnings(self) -> list[str]:
+        """What the loader noticed, one sentence each."""
+    def __len__(self) -> int:
+        """The number of scans."""
 
 class Registration:
     """The outcome of one registration."""
@@ -77,41 +102,55 @@ class Registration:
     @property
     def variant(self) -> str: ...
     @property
-    def t_ref_src(self) -> Pose: ...
+    def t_ref_src(self) -> Pose:
+        """(tx_m, ty_m, theta_rad): metres, metres and RADIANS (theta_deg has it in degrees;
+        the repr prints degrees); maps source points into the reference scan's frame."""
     @property
-    def theta_deg(self) -> float: ...
+    def theta_deg(self) -> float:
+        """The rotation of t_ref_src in degrees, as pairs.csv's theta_deg."""
     @property
     def covariance(self) -> npt.NDArray[np.float64] | None:
-        """(3, 3) over (tx m, ty m, theta rad) as icp-eval reports it, or None."""
+        """(3, 3) over (tx, ty, theta) as icp-eval reports it: m² for the translations, m·rad
+        between a translation and theta, rad² for theta; or None."""
     @property
     def covariance_unbounded(self) -> bool: ...
     @property
-    def iterations(self) -> int: ...
+    def iterations(self) -> int:
+        """Minimisation steps taken (a count)."""
     @property
-    def stop_reason(self) -> str: ...
+    def stop_reason(self) -> str:
+        """converged, small_update, repeated_matching or max_iterations."""
     @property
     def converged(self) -> bool: ...
     @property
     def status(self) -> str:
         """ok, degenerate or no_overlap (no global check is made)."""
     @property
-    def status_reason(self) -> str: ...
+    def status_reason(self) -> str:
+        """Why the status is not ok, with its figures (empty when it is)."""
     @property
     def degenerate(self) -> bool: ...
     @property
     def no_overlap(self) -> bool: ...
     @property
-    def cond_ratio(self) -> float | None: ...
+    def cond_ratio(self) -> float | None:
+        """Smallest over largest eigenvalue of the Hessian at the solution (unitless)."""
     @property
-    def overlap(self) -> float: ...
+    def overlap(self) -> float:
+        """The smaller of the fractions (0 to 1) of source and reference points near the other
+        scan."""
     @property
-    def n_pairs(self) -> int: ...
+    def n_pairs(self) -> int:
+        """Pairs the metric used at the solution (a count)."""
     @property
-    def n_unusable(self) -> int: ...
+    def n_unusable(self) -> int:
+        """Pairs the metric could not use at the solution (a count)."""
     @property
-    def weight_sum(self) -> float: ...
+    def weight_sum(self) -> float:
+        """Sum of the final pair weights of the last step, in the weighting's own units."""
     @property
-    def mean_residual_m(self) -> float: ...
+    def mean_residual_m(self) -> float:
+        """Mean residual of the used pairs after the final estimate, metres."""
 
 def variants() -> list[str]:
     """The built-in variants' names."""
@@ -131,7 +170,8 @@ def register(
     sensor: Mapping[str, float] | None = None,
 ) -> Registration:
     """Registers source (scan k) onto reference (scan k+1), (n, 2) float64 arrays of
-    range_m, bearing_rad; variant defaults to HD_GICP, init to the identity."""
+    range_m (metres), bearing_rad (radians); variant defaults to HD_GICP, init (a Pose:
+    metres, metres, radians) to the identity; sensor as Dataset.sensor."""
 
 def motion(
     t_ref_src: Pose,
@@ -140,7 +180,12 @@ def motion(
     covariance: npt.NDArray[np.float64] | None = None,
     bearing_sense: str = "counter_clockwise",
 ) -> dict[str, float | None]:
-    """sog_mps, dcog_deg, rot_dps, hdg_deg and their *_sigma_* (None without covariance)."""
+    """The step t_ref_src (a Pose: metres, metres, radians) taken over dt_s seconds from
+    heading_deg (degrees): sog_mps (m/s), dcog_deg (degrees in (-180, 180], clockwise
+    positive), rot_dps (degrees per second, clockwise positive), hdg_deg (degrees in
+    [0, 360)) and their standard errors sog_sigma_mps, dcog_sigma_deg, rot_sigma_dps,
+    hdg_sigma_deg in the same units (None without covariance, a (3, 3) array in the units of
+    Registration.covariance)."""
 
 def run(
     uri: str,
@@ -168,8 +213,11 @@ def run(
 ) -> dict[str, Any]:
     """`icp-eval run` with its options as keywords: variants (default the four of Table 1)
     and weightings {NAME: (BASE_VARIANT, fn)} over every consecutive pair of uri; writes the
-    run's files into out and returns summary.json as a dict. lags > 1 also registers k → k+ℓ
-    for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does."""
+    run's files into out and returns summary.json as a dict (its units are in its keys'
+    suffixes: _m, _deg, _mps, _dps, _s; eval/README.md documents it). lags > 1 also registers
+    k → k+ℓ for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does. reference_offset: scans
+    (the default, 0, never applies an offset) or "auto" (the estimated one);
+    reference_offset and reference_checks are refused on a dataset without a reference."""
 
 def compare(
     uri: str,

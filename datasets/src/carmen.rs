@@ -291,6 +291,7 @@ pub fn parse<R: Read>(
                 }),
             )
             .collect(),
+        first_scans: None,
     }
     .checked();
     Ok((with_odom_lines(ds, &odom_lines, &times_s), counts))

@@ -183,11 +183,11 @@ impl PerScanRow for OdometryRow {
 }
 
 /// The values of a file with one row per scan: rows `0, 1, 2, …`, one per each of the
-/// `n_scans` scans, every number finite.
+/// `n_scans` scans read from `scans_path`, every number finite.
 fn per_scan<T: PerScanRow, R: Read>(
     path: &Path,
     reader: R,
-    n_scans: usize,
+    (scans_path, n_scans): (&Path, usize),
 ) -> Result<Vec<T::Value>, DatasetError> {
     let mut out = Vec::with_capacity(n_scans);
     for (line, row) in rows::<T, _>(path, reader, T::COLUMNS, &[])? {
@@ -210,11 +210,12 @@ fn per_scan<T: PerScanRow, R: Read>(
         out.push(value);
     }
     if out.len() != n_scans {
-        return Err(DatasetError::Shape {
+        return Err(DatasetError::RowsPerScan {
             path: path.to_path_buf(),
-            name: format!("{} rows", T::WHAT),
-            expected: format!("one per scan ({n_scans})"),
-            got: vec![out.len()],
+            what: T::WHAT,
+            rows: out.len(),
+            scans_path: scans_path.to_path_buf(),
+            scans: n_scans,
         });
     }
     Ok(out)
@@ -434,11 +435,12 @@ pub fn parse<R: Read>(
     if let Some((id, ts)) = current {
         out.push(finish(id, ts, &ranges, &bearings, &normals)?);
     }
+    let scans = (scans_path, out.len());
     let reference = poses
-        .map(|(path, reader)| per_scan::<PoseRow, _>(path, reader, out.len()))
+        .map(|(path, reader)| per_scan::<PoseRow, _>(path, reader, scans))
         .transpose()?;
     let odometry = odometry
-        .map(|(path, reader)| per_scan::<OdometryRow, _>(path, reader, out.len()))
+        .map(|(path, reader)| per_scan::<OdometryRow, _>(path, reader, scans))
         .transpose()?;
     let reference_kind = match (&reference, meta.reference_kind) {
         (Some(_), kind) => Some(kind.unwrap_or(ReferenceKind::Unknown)),
@@ -509,6 +511,7 @@ pub fn parse<R: Read>(
                     }),
             )
             .collect(),
+        first_scans: None,
     };
     if let Some(dt) = meta.dt_s {
         ds.set_dt_s(dt)?;

@@ -193,6 +193,22 @@ pub enum LoadWarning {
         /// Why, naming the frames.
         reason: String,
     },
+    /// A scan with fewer readings (returns and no-returns) than the count more than half the
+    /// scans share: a file cut inside that scan (a CSV's last scan cut at a line boundary), or
+    /// a scan of another setting (a CARMEN line with another reading count). The first such
+    /// scan is named.
+    ShortScan {
+        /// The first scan with fewer readings.
+        scan: usize,
+        /// Its readings.
+        readings: usize,
+        /// The readings of the scans before and after it, where there are such scans.
+        neighbour_readings: Vec<usize>,
+        /// The reading count more than half the scans share.
+        usual_readings: usize,
+        /// Scans with fewer readings than that, this one included.
+        scans: usize,
+    },
 }
 
 /// Which pose channel of a dataset a figure was measured on.
@@ -248,7 +264,8 @@ impl fmt::Display for LoadWarning {
             Self::AssumedScanSpacing { dt_s } => write!(
                 f,
                 "no usable timestamps and no dt_s given: {dt_s} s between scans assumed \
-                 (speeds and turn rates scale with it; give dt_s or --dt)"
+                 (the speeds and turn rates of scans without a timestamp scale with it: give \
+                 dt_s or --dt; stamped scans keep their own time steps)"
             ),
             Self::NonIncreasingTimestamps { pairs, first_scan } => write!(
                 f,
@@ -286,6 +303,39 @@ impl fmt::Display for LoadWarning {
                 "{messages} reference message(s) without a usable pose (non-finite, zero \
                  quaternion, or no GNSS fix) were skipped"
             ),
+            Self::ShortScan {
+                scan,
+                readings,
+                neighbour_readings,
+                usual_readings,
+                scans,
+            } => {
+                let neighbours: Vec<String> = [scan.checked_sub(1), Some(scan + 1)]
+                    .into_iter()
+                    .flatten()
+                    .zip(neighbour_readings)
+                    .map(|(k, n)| format!("{n} (scan {k})"))
+                    .collect();
+                let (whose, have) = if neighbours.len() == 1 {
+                    ("neighbour", "has")
+                } else {
+                    ("neighbours", "have")
+                };
+                write!(
+                    f,
+                    "scan {scan} has {readings} readings where its {whose} {have} {} and more \
+                     than half the scans {usual_readings}: was the file cut inside it?",
+                    neighbours.join(" and ")
+                )?;
+                if *scans > 1 {
+                    write!(
+                        f,
+                        " ({} more scan(s) have fewer than {usual_readings})",
+                        scans - 1
+                    )?;
+                }
+                Ok(())
+            }
         }
     }
 }
@@ -345,6 +395,36 @@ pub struct SkippedPair {
     pub reason: String,
 }
 
+/// The first scans of a source, kept by its `scans` option (`icp-eval run --scans N`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FirstScans {
+    /// The scans asked for.
+    pub requested: usize,
+    /// The scans the source has; when fewer than asked for, all of them are kept.
+    pub available: usize,
+}
+
+impl fmt::Display for FirstScans {
+    /// `the first 30 of 440 scans: `--scans 30``, or all of them and why.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let Self {
+            requested,
+            available,
+        } = *self;
+        match requested.cmp(&available) {
+            std::cmp::Ordering::Less => write!(
+                f,
+                "the first {requested} of {available} scans: `--scans {requested}`"
+            ),
+            std::cmp::Ordering::Equal => write!(f, "all {available} scans: `--scans {requested}`"),
+            std::cmp::Ordering::Greater => write!(
+                f,
+                "all {available} scans: `--scans {requested}` asks for more than the data have"
+            ),
+        }
+    }
+}
+
 /// Scans in order, with what is known about them.
 #[derive(Clone, Debug)]
 pub struct Dataset {
@@ -381,6 +461,9 @@ pub struct Dataset {
     pub bearing_sense: BearingSense,
     /// What the loader noticed (see [`LoadWarning`]), in the order found.
     pub warnings: Vec<LoadWarning>,
+    /// When only the first scans of the source were kept ([`Dataset::keep_first`]): how many
+    /// were asked for and how many the source has. `None`: every scan the loader read.
+    pub first_scans: Option<FirstScans>,
 }
 
 /// Median step between consecutive poses above which [`LoadWarning::LargeSteps`] is given,
@@ -430,18 +513,54 @@ pub(crate) fn nominal_dt_s(scans: &[Scan]) -> (f64, Option<LoadWarning>) {
 /// Fewest valid returns a scan needs to take part in a pair.
 pub const MIN_RETURNS: usize = icp_core::scan::MIN_POINTS;
 
+impl LoadWarning {
+    /// Whether [`Dataset::checked`] finds it (from the loaded data, whatever the loader),
+    /// rather than a loader (from what it read).
+    fn is_check(&self) -> bool {
+        matches!(
+            self,
+            Self::OdometryEqualsReference { .. }
+                | Self::LargeSteps { .. }
+                | Self::NonIncreasingTimestamps { .. }
+                | Self::ShortScan { .. }
+        )
+    }
+}
+
 impl Dataset {
     /// The dataset with the warnings every loader's output is checked for appended:
-    /// [`LoadWarning::OdometryEqualsReference`], [`LoadWarning::LargeSteps`] and
-    /// [`LoadWarning::NonIncreasingTimestamps`].
+    /// [`LoadWarning::OdometryEqualsReference`], [`LoadWarning::LargeSteps`],
+    /// [`LoadWarning::NonIncreasingTimestamps`] and [`LoadWarning::ShortScan`].
     pub fn checked(mut self) -> Self {
         let found = [
             self.odometry_equals_reference(),
             self.large_steps(),
             self.non_increasing_timestamps(),
+            self.short_scan(),
         ];
         self.warnings.extend(found.into_iter().flatten());
         self
+    }
+
+    /// The first `n` scans, with their reference and odometry poses, recorded in
+    /// [`Dataset::first_scans`] (all of them when the dataset has fewer). The checks of
+    /// [`Dataset::checked`] are made again on the scans kept; the loader's own warnings
+    /// (what it read from the whole source) stay. The nominal spacing `dt_s` and the
+    /// provenance stay the source's.
+    pub fn keep_first(mut self, n: usize) -> Self {
+        self.first_scans = Some(FirstScans {
+            requested: n,
+            available: self.scans.len(),
+        });
+        self.scans.truncate(n);
+        for poses in self.reference.iter_mut() {
+            poses.truncate(n);
+        }
+        for poses in self.odometry.iter_mut() {
+            poses.truncate(n);
+        }
+        self.warnings.retain(|w| !w.is_check());
+        self.checked()
     }
 
     /// The odometry poses when they are independent of the reference: present, and not
@@ -543,6 +662,37 @@ impl Dataset {
         Some(LoadWarning::NonIncreasingTimestamps {
             pairs: bad.len(),
             first_scan,
+        })
+    }
+
+    /// The warning when more than half the scans share a reading count (returns and
+    /// no-returns: a scanner's fixed count) and some scan has fewer.
+    fn short_scan(&self) -> Option<LoadWarning> {
+        let readings: Vec<usize> = self
+            .scans
+            .iter()
+            .map(|s| s.len() + s.no_returns())
+            .collect();
+        let mut sorted = readings.clone();
+        sorted.sort_unstable();
+        // A count more than half the scans share is their median.
+        let usual_readings = *sorted.get(sorted.len() / 2)?;
+        let sharing = readings.iter().filter(|&&r| r == usual_readings).count();
+        if 2 * sharing <= readings.len() {
+            return None;
+        }
+        let mut short = (0..readings.len()).filter(|&k| readings[k] < usual_readings);
+        let scan = short.next()?;
+        Some(LoadWarning::ShortScan {
+            scan,
+            readings: readings[scan],
+            neighbour_readings: [scan.checked_sub(1), Some(scan + 1)]
+                .into_iter()
+                .flatten()
+                .filter_map(|k| readings.get(k).copied())
+                .collect(),
+            usual_readings,
+            scans: 1 + short.count(),
         })
     }
 

@@ -35,6 +35,19 @@ pub enum DatasetError {
         expected: String,
         got: Vec<usize>,
     },
+    /// A file with one row per scan whose row count is not the scan count (a CSV dataset's
+    /// `poses.csv` or `odometry.csv` against its `scans.csv`).
+    #[error(
+        "{path} has {rows} {what} rows but {scans_path} has {scans} scans: one {what} row per scan"
+    )]
+    RowsPerScan {
+        path: PathBuf,
+        /// What a row holds (`pose`, `odometry pose`).
+        what: &'static str,
+        rows: usize,
+        scans_path: PathBuf,
+        scans: usize,
+    },
     /// A line of a text log that cannot be read.
     #[error("{path}:{line}: {what}")]
     Parse {

@@ -24,8 +24,8 @@ pub mod source;
 pub mod synthetic;
 
 pub use dataset::{
-    Dataset, FileProvenance, LoadWarning, Pose2, PoseChannel, Provenance, ReferenceKind,
-    ReferencePose, ScanPair, SkippedPair,
+    Dataset, FileProvenance, FirstScans, LoadWarning, Pose2, PoseChannel, Provenance,
+    ReferenceKind, ReferencePose, ScanPair, SkippedPair,
 };
 pub use error::DatasetError;
 pub use odom_lines::MAX_ODOM_GAP_S;

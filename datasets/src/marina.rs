@@ -255,6 +255,7 @@ fn assemble(
         sensor: options.sensor,
         bearing_sense: BEARING_SENSE,
         warnings: Vec::new(),
+        first_scans: None,
     }
     .checked())
 }

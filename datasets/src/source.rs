@@ -33,6 +33,8 @@ pub enum Target {
 pub struct OptionDoc {
     /// The key.
     pub name: &'static str,
+    /// The command-line flag that also sets it (`icp-eval run --dt`), if any.
+    pub flag: Option<&'static str>,
     /// What it sets, with its default.
     pub help: &'static str,
 }
@@ -61,9 +63,11 @@ impl Kind {
     }
 }
 
-const DT_S: OptionDoc = OptionDoc {
-    name: "dt_s",
-    help: "nominal time between scans, s, where scans carry no timestamps (also --dt)",
+/// The first N scans of a source read from files (synthetic data generates N instead).
+const SCANS: OptionDoc = OptionDoc {
+    name: "scans",
+    flag: Some("--scans"),
+    help: "keep the first N scans, N >= 2 (more than there are: all of them, as the report says)",
 };
 
 /// Every dataset kind, in the order help lists them.
@@ -75,12 +79,15 @@ pub static KINDS: &[Kind] = &[
         options: &[
             OptionDoc {
                 name: "data_dir",
-                help: "directory of the files or of a marina/ folder (also --data-dir)",
+                flag: Some("--data-dir"),
+                help: "directory of the files or of a marina/ folder",
             },
             OptionDoc {
                 name: "dt_s",
-                help: "time between scans, s (default 1.0; also --dt)",
+                flag: Some("--dt"),
+                help: "time between scans, s (default 1.0: the files have no timestamps)",
             },
+            SCANS,
         ],
         open: open_marina,
     },
@@ -91,15 +98,20 @@ pub static KINDS: &[Kind] = &[
         options: &[
             OptionDoc {
                 name: "scans",
-                help: "number of scans (default: the scenario's; also --scans)",
+                flag: Some("--scans"),
+                help: "number of scans generated, N >= 2 (default: the scenario's); the \
+                       harbour is built around their track, so they are not the first N of \
+                       the default run",
             },
             OptionDoc {
                 name: "seed",
-                help: "seed of the scenario (default: its own; also --scenario-seed)",
+                flag: Some("--scenario-seed"),
+                help: "seed of the scenario (default: its own)",
             },
             OptionDoc {
                 name: "dt_s",
-                help: "time between scans, s (default: the scenario's; also --dt)",
+                flag: Some("--dt"),
+                help: "time between scans, s (default: the scenario's)",
             },
         ],
         open: open_synthetic,
@@ -111,17 +123,20 @@ pub static KINDS: &[Kind] = &[
         options: &[
             OptionDoc {
                 name: "fov_deg",
-                help: "field of view of the laser, degrees (default 180; also --carmen-fov-deg)",
+                flag: Some("--carmen-fov-deg"),
+                help: "field of view of the laser, degrees (default 180)",
             },
             OptionDoc {
                 name: "max_range_m",
-                help: "readings at or beyond it are no-returns, m (default 50; also --carmen-max-range-m)",
+                flag: Some("--carmen-max-range-m"),
+                help: "readings at or beyond it are no-returns, m (default 50)",
             },
             OptionDoc {
                 name: "reference_kind",
+                flag: None,
                 help: "what the logged poses are: slam_corrected (default) or odometry",
             },
-            DT_S,
+            SCANS,
         ],
         open: open_carmen,
     },
@@ -129,7 +144,15 @@ pub static KINDS: &[Kind] = &[
         name: "csv",
         target: Target::Required("DIR"),
         summary: "our CSV format (scans.csv, poses.csv, dataset.json; written by `synth`)",
-        options: &[DT_S],
+        options: &[
+            OptionDoc {
+                name: "dt_s",
+                flag: Some("--dt"),
+                help: "time between scans, s, for scans.csv without timestamps (refused when \
+                       every scan has one: the time between two scans is then theirs)",
+            },
+            SCANS,
+        ],
         open: open_csv,
     },
     Kind {
@@ -141,28 +164,33 @@ pub static KINDS: &[Kind] = &[
         options: &[
             OptionDoc {
                 name: "scan",
+                flag: None,
                 help: "the LaserScan topic (default: the only one)",
             },
             OptionDoc {
                 name: "reference",
+                flag: None,
                 help: "the reference topic, or none (default: the only one of a reference type)",
             },
             OptionDoc {
                 name: "reference_kind",
+                flag: None,
                 help: "what the reference is: ground_truth, slam_corrected, odometry, unknown \
                        (default: odometry for Odometry, unknown for poses, gnss_positions for NavSatFix)",
             },
             OptionDoc {
                 name: "body_frame",
+                flag: None,
                 help: "the frame whose pose the reference is (default: Odometry's child_frame_id, \
                        NavSatFix's frame_id, base_link for poses)",
             },
             OptionDoc {
                 name: "tf",
+                flag: None,
                 help: "on: the scanner's offset from that frame from /tf_static, applied to \
                        rigid poses (default); off: the reference taken as the scanner's pose",
             },
-            DT_S,
+            SCANS,
         ],
         open: open_rosbag,
     },
@@ -174,10 +202,34 @@ pub fn help() -> String {
     for k in KINDS {
         s += &format!("  {}: {}\n", k.syntax(), k.summary);
         for o in k.options {
-            s += &format!("      ?{}=: {}\n", o.name, o.help);
+            let also = o.flag.map_or_else(String::new, |f| format!(" (also {f})"));
+            s += &format!("      ?{}=: {}{also}\n", o.name, o.help);
         }
     }
     s
+}
+
+/// What flag `flag` sets, and in which kinds: `it sets ?seed= of synthetic datasets only: seed
+/// of the scenario ...`.
+fn flag_use(flag: &str) -> String {
+    let users: Vec<(&str, &OptionDoc)> = KINDS
+        .iter()
+        .flat_map(|k| k.options.iter().map(move |o| (k.name, o)))
+        .filter(|(_, o)| o.flag == Some(flag))
+        .collect();
+    let Some((_, first)) = users.first() else {
+        return "no dataset kind has it".to_owned();
+    };
+    let kinds: Vec<&str> = users.iter().map(|(k, _)| *k).collect();
+    let kinds = match kinds.split_last() {
+        Some((last, [])) => (*last).to_owned(),
+        Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    format!(
+        "it sets ?{}= of {kinds} datasets only: {}",
+        first.name, first.help
+    )
 }
 
 /// The kinds' syntaxes, `marina | synthetic[:...] | ...`.
@@ -237,6 +289,28 @@ pub enum SourceError {
         first: String,
         /// The second value.
         second: String,
+    },
+    /// A command-line flag that sets an option other kinds have and this one does not.
+    #[error("{flag} does not apply to a {kind} dataset: {why}")]
+    FlagNotApplicable {
+        /// The flag.
+        flag: String,
+        /// The kind.
+        kind: &'static str,
+        /// What the flag sets, and for which kinds.
+        why: String,
+    },
+    /// An option the kind has that the loaded data leave nothing to do for.
+    #[error("dataset {kind}: option {option}{} does not apply: {why}", flag.map_or_else(String::new, |f| format!(" ({f})")))]
+    NotApplicable {
+        /// The kind.
+        kind: &'static str,
+        /// The option.
+        option: &'static str,
+        /// The flag that also sets it.
+        flag: Option<&'static str>,
+        /// Why.
+        why: String,
     },
     /// An option whose value is not usable.
     #[error("dataset {kind}: option {option} = {value:?}: {expected}")]
@@ -351,16 +425,26 @@ impl DatasetSource {
             })
     }
 
-    /// Sets option `key` from a command-line flag when the kind has it (flags that do not
-    /// apply to the kind are ignored, as before the registry); refused when the string gave
-    /// it a different value.
+    /// Sets the option that command-line flag `flag` (`--dt`, `--scans`, ...: [`OptionDoc::flag`])
+    /// stands for; refused when the kind has no such option (naming the kinds that have it)
+    /// or when the string gave it a different value.
     pub fn set_from_flag(
         &mut self,
-        key: &str,
+        flag: &str,
         value: impl fmt::Display,
     ) -> Result<(), SourceError> {
-        let Ok(option) = self.option_name(key) else {
-            return Ok(());
+        let Some(option) = self
+            .kind
+            .options
+            .iter()
+            .find(|o| o.flag == Some(flag))
+            .map(|o| o.name)
+        else {
+            return Err(SourceError::FlagNotApplicable {
+                flag: flag.to_owned(),
+                kind: self.kind.name,
+                why: flag_use(flag),
+            });
         };
         let value = value.to_string();
         let same = |a: &str, b: &str| {
@@ -448,13 +532,37 @@ impl DatasetSource {
             .transpose()
     }
 
+    /// `scans`, which must leave a pair: at least 2.
+    fn scans(&self) -> Result<Option<usize>, SourceError> {
+        let n = self.get::<usize>("scans", "a count of scans")?;
+        match n {
+            Some(n) if n < 2 => Err(SourceError::BadValue {
+                kind: self.kind.name,
+                option: "scans",
+                value: n.to_string(),
+                expected: "at least 2: a run registers pairs of consecutive scans".into(),
+            }),
+            _ => Ok(n),
+        }
+    }
+
+    /// The flag that also sets option `key`.
+    fn flag_of(&self, key: &str) -> Option<&'static str> {
+        self.kind
+            .options
+            .iter()
+            .find(|o| o.name == key)
+            .and_then(|o| o.flag)
+    }
+
     /// The target as a path.
     fn path(&self) -> &Path {
         Path::new(self.target.as_deref().unwrap_or_default())
     }
 
-    /// Loads the dataset.
+    /// Loads the dataset (a `scans` that leaves no pair refused before anything is read).
     pub fn open(&self) -> Result<Dataset, DatasetError> {
+        self.scans()?;
         (self.kind.open)(self)
     }
 }
@@ -464,12 +572,35 @@ pub fn open(text: &str) -> Result<Dataset, DatasetError> {
     text.parse::<DatasetSource>()?.open()
 }
 
-/// `dt_s` set on a loaded dataset (it replaces an assumed spacing).
-fn with_dt(mut ds: Dataset, dt_s: Option<f64>) -> Result<Dataset, DatasetError> {
-    if let Some(dt) = dt_s {
+/// `dt_s` set on a loaded dataset (it replaces an assumed spacing); refused when every scan
+/// has a timestamp, as the time between two scans is then the difference of theirs and the
+/// spacing would change nothing but its display.
+fn with_dt(mut ds: Dataset, s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    if let Some(dt) = s.dt_s()? {
+        if ds.scans.iter().all(|scan| scan.timestamp_s().is_some()) {
+            return Err(SourceError::NotApplicable {
+                kind: s.kind.name,
+                option: "dt_s",
+                flag: s.flag_of("dt_s"),
+                why: format!(
+                    "every scan of {} has a timestamp, and the time between two scans is the \
+                     difference of theirs",
+                    ds.provenance.name
+                ),
+            }
+            .into());
+        }
         ds.set_dt_s(dt)?;
     }
     Ok(ds)
+}
+
+/// The first `scans` scans of a loaded dataset, when the option is given.
+fn with_first_scans(ds: Dataset, s: &DatasetSource) -> Result<Dataset, DatasetError> {
+    Ok(match s.scans()? {
+        Some(n) => ds.keep_first(n),
+        None => ds,
+    })
 }
 
 fn open_marina(s: &DatasetSource) -> Result<Dataset, DatasetError> {
@@ -479,7 +610,7 @@ fn open_marina(s: &DatasetSource) -> Result<Dataset, DatasetError> {
         dt_s: s.dt_s()?.unwrap_or(1.0),
         ..Default::default()
     };
-    marina::load(&dir, &options)
+    with_first_scans(marina::load(&dir, &options)?, s)
 }
 
 fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
@@ -496,7 +627,7 @@ fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
     if let Some(dt) = s.dt_s()? {
         scenario.dt_s = dt;
     }
-    if let Some(n) = s.get("scans", "a count of scans")? {
+    if let Some(n) = s.scans()? {
         scenario.n_scans = n;
     }
     synthetic::generate(&scenario)
@@ -516,11 +647,11 @@ fn open_carmen(s: &DatasetSource) -> Result<Dataset, DatasetError> {
             .unwrap_or(defaults.reference_kind),
         ..defaults
     };
-    with_dt(carmen::load(s.path(), &options)?, s.dt_s()?)
+    with_first_scans(carmen::load(s.path(), &options)?, s)
 }
 
 fn open_csv(s: &DatasetSource) -> Result<Dataset, DatasetError> {
-    with_dt(csvdir::load(s.path())?, s.dt_s()?)
+    with_first_scans(with_dt(csvdir::load(s.path())?, s)?, s)
 }
 
 fn open_rosbag(s: &DatasetSource) -> Result<Dataset, DatasetError> {
@@ -553,7 +684,7 @@ fn open_rosbag(s: &DatasetSource) -> Result<Dataset, DatasetError> {
             }
         },
     };
-    with_dt(rosbag::load(s.path(), &options)?, s.dt_s()?)
+    with_first_scans(rosbag::load(s.path(), &options)?, s)
 }
 
 #[cfg(test)]
@@ -582,7 +713,7 @@ mod tests {
         assert_eq!(
             err("rosbag:b?topic=/scan"),
             "dataset rosbag: unknown option \"topic\": expected one of scan, reference, \
-             reference_kind, body_frame, tf, dt_s"
+             reference_kind, body_frame, tf, scans"
         );
         assert_eq!(
             err("rosbag:b?scan=/a&scan=/b"),
@@ -612,19 +743,63 @@ mod tests {
     #[test]
     fn flags_fill_options_the_string_left_out_and_clash_with_different_ones() {
         let mut s: DatasetSource = "carmen:a.log?fov_deg=270".parse().unwrap();
-        s.set_from_flag("max_range_m", 30.0).unwrap();
-        s.set_from_flag("fov_deg", 270.0).unwrap();
-        s.set_from_flag("fov_deg", "270.0").unwrap();
-        s.set_from_flag("scans", 5).unwrap(); // not a carmen option: ignored
+        s.set_from_flag("--carmen-max-range-m", 30.0).unwrap();
+        s.set_from_flag("--carmen-fov-deg", 270.0).unwrap();
+        s.set_from_flag("--carmen-fov-deg", "270.0").unwrap();
+        s.set_from_flag("--scans", 5).unwrap();
         assert_eq!(s.raw("max_range_m"), Some("30"));
-        assert!(s.raw("scans").is_none());
+        assert_eq!(s.raw("scans"), Some("5"));
         assert!(matches!(
-            s.set_from_flag("fov_deg", 180.0),
+            s.set_from_flag("--carmen-fov-deg", 180.0),
             Err(SourceError::Repeated {
                 option: "fov_deg",
                 ..
             })
         ));
+    }
+
+    #[test]
+    fn a_flag_of_another_kind_is_refused_naming_the_kinds_it_is_for() {
+        let refusal = |dataset: &str, flag: &str| {
+            let mut s: DatasetSource = dataset.parse().unwrap();
+            s.set_from_flag(flag, 1).unwrap_err().to_string()
+        };
+        assert_eq!(
+            refusal("carmen:a.log", "--scenario-seed"),
+            "--scenario-seed does not apply to a carmen dataset: it sets ?seed= of synthetic \
+             datasets only: seed of the scenario (default: its own)"
+        );
+        assert_eq!(
+            refusal("csv:d", "--carmen-fov-deg"),
+            "--carmen-fov-deg does not apply to a csv dataset: it sets ?fov_deg= of carmen \
+             datasets only: field of view of the laser, degrees (default 180)"
+        );
+        assert_eq!(
+            refusal("rosbag:b.mcap", "--dt"),
+            format!(
+                "--dt does not apply to a rosbag dataset: it sets ?dt_s= of marina, synthetic \
+                 and csv datasets only: {}",
+                KINDS[0].options[1].help
+            )
+        );
+        assert!(refusal("synthetic", "--data-dir").starts_with(
+            "--data-dir does not apply to a synthetic dataset: it sets ?data_dir= of marina"
+        ));
+    }
+
+    #[test]
+    fn scans_must_leave_a_pair() {
+        for (text, value) in [("csv:d?scans=1", "1"), ("synthetic?scans=0", "0")] {
+            let s: DatasetSource = text.parse().unwrap();
+            let kind = s.kind().name;
+            assert_eq!(
+                s.scans().unwrap_err().to_string(),
+                format!(
+                    "dataset {kind}: option scans = \"{value}\": at least 2: a run registers \
+                     pairs of consecutive scans"
+                )
+            );
+        }
     }
 
     #[test]

@@ -564,3 +564,76 @@ fn aces_odometry_is_its_odom_lines_and_its_steps_are_large() {
     assert!((median_m - 0.0512).abs() < 1e-3, "{median_m}");
     assert!((median_deg - 0.719).abs() < 1e-2, "{median_deg}");
 }
+
+/// A `FLASER` line with fewer readings than the lines around it (another laser setting, or a
+/// log edited by hand) is named.
+#[test]
+fn a_line_with_fewer_readings_is_named() {
+    let mut lines: Vec<String> = (0..4)
+        .map(|k| flaser(0.1 * k as f64, 0.0, 0.0, k as f64))
+        .collect();
+    // Line 2 with its first 91 of 181 readings.
+    let fields: Vec<&str> = lines[2].split_whitespace().collect();
+    let short = ["FLASER", "91"]
+        .iter()
+        .chain(&fields[2..93])
+        .chain(&fields[183..])
+        .copied()
+        .collect::<Vec<_>>()
+        .join(" ");
+    lines[2] = short;
+    let ds = parse_log(&lines);
+    let short = ds
+        .warnings
+        .iter()
+        .find(|w| matches!(w, LoadWarning::ShortScan { .. }));
+    assert_eq!(
+        short,
+        Some(&LoadWarning::ShortScan {
+            scan: 2,
+            readings: 91,
+            neighbour_readings: vec![181, 181],
+            usual_readings: 181,
+            scans: 1,
+        })
+    );
+}
+
+/// Issue 33: `--scans 30` on aces ran all 440 scans. `?scans=30` keeps the first 30, their
+/// poses, odometry and timestamps with them, says how many of how many, and makes the checks
+/// again on them (the ODOM lines' odometry stays the odometry).
+#[test]
+#[ignore = "needs the CARMEN aces log (ICP_DATA_DIR): run with --include-ignored"]
+fn aces_first_scans_are_cut_together() {
+    let path = data::aces_log();
+    let full = carmen::load(&path, &CarmenOptions::default()).unwrap();
+    let first = datasets::open(&format!("carmen:{}?scans=30", path.display())).unwrap();
+    assert_eq!(first.scans, full.scans[..30]);
+    assert_eq!(
+        first.reference.as_deref(),
+        Some(&full.reference.as_ref().unwrap()[..30])
+    );
+    assert_eq!(
+        first.odometry.as_deref(),
+        Some(&full.odometry.as_ref().unwrap()[..30])
+    );
+    assert_eq!(
+        first.first_scans,
+        Some(datasets::FirstScans {
+            requested: 30,
+            available: 440
+        })
+    );
+    assert!(matches!(
+        first.warnings[..],
+        [
+            LoadWarning::AssumedSensorModel { .. },
+            LoadWarning::OdometryFromOdomLines { .. },
+            LoadWarning::LargeSteps { .. }
+        ]
+    ));
+    assert_eq!(
+        first.first_scans.unwrap().to_string(),
+        "the first 30 of 440 scans: `--scans 30`"
+    );
+}

@@ -216,7 +216,7 @@ fn broken_files_are_errors_naming_the_file_and_line() {
         (
             GOOD,
             Some("scan,x_m,y_m,heading_rad,scan_yaw_rad\n0,0,0,0,\n"),
-            "one per scan (2)",
+            "poses.csv has 1 pose rows but scans.csv has 2 scans: one pose row per scan",
         ),
         (
             GOOD,
@@ -251,28 +251,35 @@ fn broken_files_are_errors_naming_the_file_and_line() {
     ));
 }
 
+/// A synthetic run of `n` scans with an odometry channel of its own: the reference scaled,
+/// drifting sideways and in yaw (independent: no `odometry_equals_reference`).
+fn with_odometry(n: usize) -> datasets::Dataset {
+    let mut ds = generate(&Scenario {
+        n_scans: n,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    ds.odometry = Some(
+        ds.reference
+            .as_ref()
+            .unwrap()
+            .iter()
+            .enumerate()
+            .map(|(k, p)| Pose2 {
+                x_m: p.x_m * 1.02 + 0.1,
+                y_m: p.y_m - 0.003 * k as f64,
+                yaw_rad: p.scan_yaw_rad.unwrap() + 0.001 * k as f64,
+            })
+            .collect(),
+    );
+    ds
+}
+
 /// `odometry.csv` is optional: written when the dataset has odometry and read back bit for
 /// bit, with the reference kind and scanner offset of `dataset.json`.
 #[test]
 fn odometry_and_reference_metadata_round_trip() {
-    let mut ds = generate(&Scenario {
-        n_scans: 5,
-        ..Scenario::paper()
-    })
-    .unwrap();
-    let odometry: Vec<Pose2> = ds
-        .reference
-        .as_ref()
-        .unwrap()
-        .iter()
-        .enumerate()
-        .map(|(k, p)| Pose2 {
-            x_m: p.x_m * 1.02 + 0.1,
-            y_m: p.y_m - 0.003 * k as f64,
-            yaw_rad: p.scan_yaw_rad.unwrap() + 0.001 * k as f64,
-        })
-        .collect();
-    ds.odometry = Some(odometry);
+    let mut ds = with_odometry(5);
     ds.reference_kind = Some(ReferenceKind::SlamCorrected);
     ds.scanner_offset = Some(Pose2 {
         x_m: 0.25,
@@ -376,7 +383,8 @@ fn broken_odometry_files_name_the_file_line_and_problem() {
     };
     assert_eq!(
         odometry("scan,x_m,y_m,yaw_rad\n0,0,0,0\n"),
-        "\"odometry pose rows\" in odometry.csv has shape [1], expected one per scan (2)"
+        "odometry.csv has 1 odometry pose rows but scans.csv has 2 scans: one odometry pose \
+         row per scan"
     );
     assert_eq!(
         odometry("scan,x_m,y_m,yaw_rad\n0,0,0,0\n1,0,nan,0\n"),
@@ -400,6 +408,14 @@ fn an_assumed_spacing_and_sensor_model_are_warnings() {
         "scan,timestamp_s,range_m,bearing_rad\n0,,5,0\n0,,6,1\n0,,7,2\n1,,5,0\n1,,6,1\n1,,7,2\n";
     let ds = parse(untimed, None).unwrap();
     assert_eq!(ds.dt_s, 1.0);
+    // The hint names dt_s for the scans it acts on: stamped scans refuse it (they keep their
+    // own time steps).
+    assert_eq!(
+        ds.warnings[0].to_string(),
+        "no usable timestamps and no dt_s given: 1 s between scans assumed (the speeds and turn \
+         rates of scans without a timestamp scale with it: give dt_s or --dt; stamped scans \
+         keep their own time steps)"
+    );
     assert_eq!(
         ds.warnings,
         vec![
@@ -417,4 +433,167 @@ fn an_assumed_spacing_and_sensor_model_are_warnings() {
     };
     let ds = parse_with(untimed, None, None, &given).unwrap();
     assert_eq!((ds.dt_s, ds.warnings), (0.25, vec![]));
+}
+
+/// A synthetic run of `n` scans with independent odometry, written as a CSV directory named `name`.
+fn written_with_odometry(name: &str, n: usize) -> (datasets::Dataset, PathBuf) {
+    let ds = with_odometry(n);
+    let dir = tmp(name);
+    csvdir::write(&dir, &ds).unwrap();
+    (ds, dir)
+}
+
+/// `scans.csv` with its last `rows` rows dropped (a file cut at a line boundary).
+fn cut_scans_file(dir: &Path, rows: usize) {
+    let path = dir.join("scans.csv");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    std::fs::write(&path, lines[..lines.len() - rows].join("\n") + "\n").unwrap();
+}
+
+/// Issue 33: a `scans.csv` cut at a line boundary inside its last scan loaded without a word.
+/// It warns now, naming the scan and its readings against its neighbour's; cut before the
+/// last scan, the poses no longer match the scans and the error says so in plain words.
+#[test]
+fn a_cut_scans_file_is_named() {
+    let (ds, dir) = written_with_odometry("csv_cut", 6);
+    let readings: Vec<usize> = ds.scans.iter().map(|s| s.len() + s.no_returns()).collect();
+    assert!(readings.iter().all(|&r| r == readings[0]), "{readings:?}");
+    let full = readings[0];
+    cut_scans_file(&dir, 300);
+    let back = csvdir::load(&dir).unwrap();
+    assert_eq!(back.scans.len(), 6);
+    let warning = LoadWarning::ShortScan {
+        scan: 5,
+        readings: full - 300,
+        neighbour_readings: vec![full],
+        usual_readings: full,
+        scans: 1,
+    };
+    assert_eq!(back.warnings, vec![warning.clone()]);
+    assert_eq!(
+        warning.to_string(),
+        format!(
+            "scan 5 has {} readings where its neighbour has {full} (scan 4) and more than half \
+             the scans {full}: was the file cut inside it?",
+            full - 300
+        )
+    );
+    // Two scans and a half gone: 4 scans left, against 6 pose rows.
+    cut_scans_file(&dir, 2 * full);
+    assert_eq!(
+        csvdir::load(&dir).unwrap_err().to_string(),
+        format!(
+            "{} has 6 pose rows but {} has 4 scans: one pose row per scan",
+            dir.join("poses.csv").display(),
+            dir.join("scans.csv").display()
+        )
+    );
+}
+
+/// A short scan inside the run names both neighbours and counts the others.
+#[test]
+fn short_scans_inside_a_run_name_both_neighbours() {
+    let row = |k: usize, n: usize| -> String {
+        (0..n)
+            .map(|i| format!("{k},{k},{},{}\n", 5.0 + i as f64, 0.1 * i as f64))
+            .collect()
+    };
+    let counts = [4, 4, 3, 4, 2, 4];
+    let text = "scan,timestamp_s,range_m,bearing_rad\n".to_owned()
+        + &counts
+            .iter()
+            .enumerate()
+            .map(|(k, &n)| row(k, n))
+            .collect::<String>();
+    let ds = parse(&text, None).unwrap();
+    let short = ds
+        .warnings
+        .iter()
+        .find(|w| matches!(w, LoadWarning::ShortScan { .. }))
+        .unwrap();
+    assert_eq!(
+        short.to_string(),
+        "scan 2 has 3 readings where its neighbours have 4 (scan 1) and 4 (scan 3) and more \
+         than half the scans 4: was the file cut inside it? (1 more scan(s) have fewer than 4)"
+    );
+    // No count shared by more than half the scans (readings vary, as where no-returns are not
+    // written): nothing to tell a cut from.
+    let varied = "scan,timestamp_s,range_m,bearing_rad\n".to_owned()
+        + &[4, 5, 3, 6]
+            .iter()
+            .enumerate()
+            .map(|(k, &n)| row(k, n))
+            .collect::<String>();
+    let ds = parse(&varied, None).unwrap();
+    assert!(
+        !ds.warnings
+            .iter()
+            .any(|w| matches!(w, LoadWarning::ShortScan { .. })),
+        "{:?}",
+        ds.warnings
+    );
+}
+
+/// `?scans=N` keeps the first N scans of a file dataset, their poses, odometry and
+/// timestamps with them, and records how many of how many; more than there are keeps all.
+#[test]
+fn the_scans_option_keeps_the_first_scans_and_says_so() {
+    let (ds, dir) = written_with_odometry("csv_first", 6);
+    let first = datasets::open(&format!("csv:{}?scans=3", dir.display())).unwrap();
+    assert_eq!(first.scans, ds.scans[..3]);
+    assert_eq!(
+        first.reference.as_deref(),
+        Some(&ds.reference.as_ref().unwrap()[..3])
+    );
+    assert_eq!(
+        first.odometry.as_deref(),
+        Some(&ds.odometry.as_ref().unwrap()[..3])
+    );
+    assert_eq!(
+        first.first_scans,
+        Some(datasets::FirstScans {
+            requested: 3,
+            available: 6
+        })
+    );
+    assert_eq!(first.consecutive_pairs().0.len(), 2);
+    let all = datasets::open(&format!("csv:{}?scans=100", dir.display())).unwrap();
+    assert_eq!(all.scans, ds.scans);
+    assert_eq!(
+        all.first_scans,
+        Some(datasets::FirstScans {
+            requested: 100,
+            available: 6
+        })
+    );
+    // The checks are made again on the scans kept: a cut scan after them is not theirs.
+    cut_scans_file(&dir, 300);
+    let cut = datasets::open(&format!("csv:{}", dir.display())).unwrap();
+    assert!(matches!(cut.warnings[..], [LoadWarning::ShortScan { .. }]));
+    let kept = datasets::open(&format!("csv:{}?scans=5", dir.display())).unwrap();
+    assert_eq!(kept.warnings, vec![]);
+}
+
+/// `dt_s` changes nothing where every scan has a timestamp (a pair's time step is theirs):
+/// refused, saying so; applied to scans without timestamps.
+#[test]
+fn dt_s_is_refused_where_every_scan_has_a_timestamp() {
+    let (_, dir) = written_with_odometry("csv_dt", 3);
+    assert_eq!(
+        datasets::open(&format!("csv:{}?dt_s=0.5", dir.display()))
+            .unwrap_err()
+            .to_string(),
+        "dataset csv: option dt_s (--dt) does not apply: every scan of synthetic:paper has a \
+         timestamp, and the time between two scans is the difference of theirs"
+    );
+    let untimed = tmp("csv_untimed");
+    std::fs::create_dir_all(&untimed).unwrap();
+    std::fs::write(
+        untimed.join("scans.csv"),
+        "scan,timestamp_s,range_m,bearing_rad\n0,,5,0\n0,,6,1\n0,,7,2\n1,,5,0\n1,,6,1\n1,,7,2\n",
+    )
+    .unwrap();
+    let ds = datasets::open(&format!("csv:{}?dt_s=0.5", untimed.display())).unwrap();
+    assert_eq!(ds.dt_s, 0.5);
 }

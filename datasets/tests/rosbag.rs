@@ -612,6 +612,57 @@ fn nan_infinite_and_out_of_range_readings_are_counted_no_returns() {
     }
 }
 
+/// A `LaserScan` with fewer readings than the others is named (issue 33); `?scans=N` keeps
+/// the first N and checks them again.
+#[test]
+fn a_scan_with_fewer_readings_is_named_and_scans_keeps_the_first() {
+    let full: Vec<f32> = (0..90).map(|k| 5.0 + (k as f32 * 0.1).sin()).collect();
+    let msgs: Vec<Msg> = (0..5)
+        .map(|k| {
+            let t = 100.0 + 0.1 * k as f64;
+            let m = LaserScanMsg {
+                t_s: t,
+                angle_min: -1.5,
+                angle_increment: 0.033,
+                time_increment: 0.0,
+                range_min: 0.1,
+                range_max: 30.0,
+                ranges: if k == 3 { &full[..60] } else { &full },
+            };
+            (0, t_ns(t), laser_scan(&m))
+        })
+        .collect();
+    let dir = scratch("short_scan");
+    for storage in STORAGES {
+        let path = write(&dir, "short", storage, &[("/scan", SCAN)], &msgs);
+        let ds = open(&path, "").unwrap();
+        assert!(
+            ds.warnings.contains(&LoadWarning::ShortScan {
+                scan: 3,
+                readings: 60,
+                neighbour_readings: vec![90, 90],
+                usual_readings: 90,
+                scans: 1,
+            }),
+            "{:?}",
+            ds.warnings
+        );
+        let first = open(&path, "?scans=3").unwrap();
+        assert_eq!(first.scans, ds.scans[..3]);
+        assert_eq!(
+            first.first_scans,
+            Some(datasets::FirstScans {
+                requested: 3,
+                available: 5
+            })
+        );
+        assert!(!first
+            .warnings
+            .iter()
+            .any(|w| matches!(w, LoadWarning::ShortScan { .. })));
+    }
+}
+
 #[test]
 fn a_bag_directory_is_read_through_its_metadata_yaml() {
     let dir = scratch("directory");

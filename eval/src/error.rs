@@ -44,6 +44,13 @@ pub enum EvalError {
         value: f64,
         why: &'static str,
     },
+    /// An option that does nothing on this dataset.
+    #[error("{option} does not apply to {dataset}: {why}")]
+    NotApplicable {
+        option: &'static str,
+        dataset: String,
+        why: &'static str,
+    },
     /// A command that needs a reference that is a rigid 2D pose of the scanner.
     #[error("{what} needs a reference that is a rigid 2D pose of the scanner; {dataset} has none")]
     NeedsRigidReference { what: &'static str, dataset: String },

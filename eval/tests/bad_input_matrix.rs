@@ -363,7 +363,7 @@ fn rosbag_unknown_option() {
         (
             Some(2),
             "error: dataset rosbag: unknown option \"topic\": expected one of scan, reference, \
-             reference_kind, body_frame, tf, dt_s"
+             reference_kind, body_frame, tf, scans"
                 .to_owned()
         )
     );
@@ -414,6 +414,125 @@ fn dataset_option_given_by_string_and_flag_differently() {
             "error: dataset synthetic: option scans given twice (\"3\" and \"4\")".to_owned()
         )
     );
+}
+
+// ---- Options that do not apply to the dataset (issue 33) -----------------------------------
+
+/// A CSV directory of three synthetic scans, with `poses.csv` or without (no reference).
+fn csv_dataset(name: &str, with_reference: bool) -> String {
+    let dir = common::scratch_dir(name).join("data");
+    let mut ds = generate(&Scenario {
+        n_scans: 3,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    if !with_reference {
+        ds.reference = None;
+        ds.reference_kind = None;
+    }
+    csvdir::write(&dir, &ds).unwrap();
+    format!("csv:{}", dir.display())
+}
+
+#[test]
+fn a_flag_of_another_dataset_kind_is_refused() {
+    let csv = csv_dataset("matrix_flag_kind_data", true);
+    assert_eq!(
+        run_cli(
+            "matrix_flag_kind",
+            &["run", "--dataset", &csv, "--scenario-seed", "7"]
+        ),
+        (
+            Some(2),
+            "error: --scenario-seed does not apply to a csv dataset: it sets ?seed= of synthetic \
+             datasets only: seed of the scenario (default: its own)"
+                .to_owned()
+        )
+    );
+    assert_eq!(
+        run_cli(
+            "matrix_flag_carmen",
+            &["basin", "--dataset", "synthetic", "--carmen-fov-deg", "270"]
+        ),
+        (
+            Some(2),
+            "error: --carmen-fov-deg does not apply to a synthetic dataset: it sets ?fov_deg= of \
+             carmen datasets only: field of view of the laser, degrees (default 180)"
+                .to_owned()
+        )
+    );
+    let (code, line) = run_cli(
+        "matrix_flag_dt",
+        &["compare", "--dataset", "carmen:aces.log.gz", "--dt", "0.5"],
+    );
+    assert_eq!(code, Some(2));
+    assert!(
+        line.starts_with(
+            "error: --dt does not apply to a carmen dataset: it sets ?dt_s= of marina, \
+             synthetic and csv datasets only"
+        ),
+        "{line}"
+    );
+}
+
+#[test]
+fn dt_on_scans_that_all_have_timestamps() {
+    let csv = csv_dataset("matrix_dt_timestamps_data", true);
+    assert_eq!(
+        run_cli(
+            "matrix_dt_timestamps",
+            &["run", "--dataset", &csv, "--dt", "0.5"]
+        ),
+        (
+            Some(2),
+            "error: dataset csv: option dt_s (--dt) does not apply: every scan of \
+             synthetic:paper has a timestamp, and the time between two scans is the difference \
+             of theirs"
+                .to_owned()
+        )
+    );
+}
+
+#[test]
+fn scans_that_leave_no_pair() {
+    for n in ["0", "1"] {
+        assert_eq!(
+            run_cli(
+                "matrix_scans_no_pair",
+                &["run", "--dataset", "carmen:aces.log.gz", "--scans", n]
+            ),
+            (
+                Some(2),
+                format!(
+                    "error: dataset carmen: option scans = \"{n}\": at least 2: a run registers \
+                     pairs of consecutive scans"
+                )
+            )
+        );
+    }
+}
+
+#[test]
+fn reference_options_on_a_dataset_without_a_reference() {
+    let csv = csv_dataset("matrix_no_reference_data", false);
+    for (option, value) in [
+        ("--reference-offset", "auto"),
+        ("--reference-checks", "off"),
+    ] {
+        assert_eq!(
+            run_cli(
+                "matrix_no_reference",
+                &["run", "--dataset", &csv, option, value]
+            ),
+            (
+                Some(2),
+                format!(
+                    "error: {option} does not apply to synthetic:paper: it has no reference to \
+                     align in time or check"
+                )
+            )
+        );
+    }
 }
 
 // ---- The sensor model of a run (`--sensor`) ---------------------------------------------------

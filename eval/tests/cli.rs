@@ -544,3 +544,156 @@ fn summaries_without_the_new_dataset_fields_still_read() {
     );
     assert!(old.dataset.warnings.is_empty() && old.dataset.scanner_offset.is_none());
 }
+
+/// A CSV directory of `n` marina-like synthetic scans, with `poses.csv` or without.
+fn csv_data(dir: &Path, n: usize, with_reference: bool) -> String {
+    let mut ds = datasets::synthetic::generate(&datasets::synthetic::Scenario {
+        n_scans: n,
+        ..datasets::synthetic::Scenario::marina_like()
+    })
+    .unwrap();
+    if !with_reference {
+        ds.reference = None;
+        ds.reference_kind = None;
+    }
+    let data = dir.join("data");
+    datasets::csvdir::write(&data, &ds).unwrap();
+    format!("csv:{}", data.display())
+}
+
+/// `icp-eval ARGS --quiet --no-plots --out OUT`: its stdout and stderr, failing when it fails.
+fn run_ok(args: &[&str], out: &Path) -> (String, String) {
+    let mut all = args.to_vec();
+    all.extend(["--quiet", "--no-plots", "--out", out.to_str().unwrap()]);
+    let o = icp_eval(&all);
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{stderr}");
+    (String::from_utf8_lossy(&o.stdout).into_owned(), stderr)
+}
+
+/// Issue 33: `--scans N` applied to synthetic data only and was silently ignored elsewhere.
+/// It keeps the first N scans of any dataset and the reports say so; more than there are
+/// keeps them all and says that too.
+#[test]
+fn scans_keeps_the_first_scans_of_a_file_dataset_and_the_reports_say_so() {
+    let dir = common::scratch_dir("cli_first_scans");
+    let spec = csv_data(&dir, 12, true);
+    let out = dir.join("first");
+    let (stdout, _) = run_ok(
+        &[
+            "run",
+            "--dataset",
+            &spec,
+            "--scans",
+            "5",
+            "--variants",
+            "HD_ICP",
+        ],
+        &out,
+    );
+    let summary: RunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!((summary.dataset.scans, summary.dataset.pairs), (5, 4));
+    assert_eq!(
+        summary.dataset.first_scans,
+        Some(datasets::FirstScans {
+            requested: 5,
+            available: 12
+        })
+    );
+    assert_eq!(read_pairs(&out).len(), 4);
+    let tum = std::fs::read_to_string(out.join("reference.tum")).unwrap();
+    assert_eq!(tum.lines().count(), 5);
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        table.starts_with(&format!(
+            "# {} — 4 pairs of 5 scans (the first 5 of 12 scans: `--scans 5`), Δt = 1 s\n",
+            summary.dataset.name
+        )),
+        "{table}"
+    );
+    assert!(stdout.starts_with(&table[..40]), "{stdout}");
+    let out = dir.join("all");
+    let (_, stderr) = run_ok(
+        &[
+            "run",
+            "--dataset",
+            &spec,
+            "--scans",
+            "40",
+            "--variants",
+            "HD_ICP",
+        ],
+        &out,
+    );
+    assert!(
+        stderr.contains("all 12 scans: `--scans 40` asks for more than the data have"),
+        "{stderr}"
+    );
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(
+        table.contains("11 pairs of 12 scans (all 12 scans: `--scans 40` asks for more"),
+        "{table}"
+    );
+    let out = dir.join("basin");
+    let (stdout, _) = run_ok(
+        &[
+            "basin",
+            "--dataset",
+            &spec,
+            "--scans",
+            "4",
+            "--variants",
+            "HD_ICP",
+            "--perturbations",
+            "1",
+        ],
+        &out,
+    );
+    assert!(
+        stdout.contains(" (the first 4 of 12 scans: `--scans 4`)\n\n3 pairs × 1 starts"),
+        "{stdout}"
+    );
+    let basin: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("basin.json")).unwrap()).unwrap();
+    assert_eq!(
+        basin["first_scans"],
+        serde_json::json!({"requested": 4, "available": 12})
+    );
+}
+
+/// Issue 33: a run without a reference ended with rc 0 and tables of "–" and no word why.
+/// table.md, compare.md and the console say that nothing could be scored and where the
+/// estimates are; the exit code stays 0.
+#[test]
+fn a_run_without_a_reference_says_nothing_could_be_scored_and_where_the_motions_are() {
+    let dir = common::scratch_dir("cli_no_reference");
+    let spec = csv_data(&dir, 6, false);
+    let sentence = "Nothing could be scored: synthetic:marina-like has no reference to measure \
+                    the estimates against, so every error, statistic and comparison here is \
+                    empty (–); the estimated motions are in `pairs.csv` (`tx_m`, `ty_m`, \
+                    `theta_deg`, `sog_est_mps`, `dcog_est_deg` per variant and pair) and the \
+                    chained trajectories in `trajectory_<variant>.tum`.";
+    let out = dir.join("run");
+    let (stdout, _) = run_ok(&["run", "--dataset", &spec, "--variants", "HD_ICP"], &out);
+    assert!(stdout.contains(sentence), "{stdout}");
+    let table = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(table.contains(sentence), "{table}");
+    assert!(read_pairs(&out)
+        .iter()
+        .all(|r| r.sog_est_mps.is_some() && r.sog_err_mps.is_none()));
+    assert!(out.join("trajectory_HD_ICP.tum").is_file());
+    let out = dir.join("compare");
+    let (stdout, _) = run_ok(
+        &["compare", "--dataset", &spec, "--variants", "K_ICP,HD_ICP"],
+        &out,
+    );
+    assert!(stdout.contains(sentence), "{stdout}");
+    let compare = std::fs::read_to_string(out.join("compare.md")).unwrap();
+    assert!(compare.contains(sentence), "{compare}");
+    // With a reference, not a word of it.
+    let spec = csv_data(&dir, 6, true);
+    let out = dir.join("scored");
+    let (stdout, _) = run_ok(&["run", "--dataset", &spec, "--variants", "HD_ICP"], &out);
+    assert!(!stdout.contains("Nothing could be scored"), "{stdout}");
+}

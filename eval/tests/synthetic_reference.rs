@@ -124,6 +124,23 @@ fn a_late_reference_is_detected_and_realigned() {
         auto.variants[0].all_pairs.pairs,
         aligned.variants[0].all_pairs.pairs - 2
     );
+    // Issue 33: table.md said an offset was estimated and not applied, without saying that the
+    // default never applies one, nor how to apply it.
+    let table = eval::render::markdown::table_md;
+    assert!(
+        table(&fixed0).contains(
+            "; applied 0 scans. The estimate is not applied: `--reference-offset 0`, the \
+             default, never applies an offset; `--reference-offset auto` applies the estimate \
+             (2 scans), `--reference-offset N` a lag of N scans.\n"
+        ),
+        "{}",
+        table(&fixed0)
+    );
+    assert!(!table(&auto).contains("not applied"));
+    assert!(table(&run(&late, OffsetChoice::Fixed(1))).contains(
+        "; applied 1 scans. `--reference-offset 1` applies that lag whatever is estimated; \
+         `--reference-offset auto` would apply the estimate (2 scans).\n"
+    ));
 }
 
 /// A repeated position in the reference is flagged with the checks on (the default), and

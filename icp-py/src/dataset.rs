@@ -96,7 +96,9 @@ impl Dataset {
         to_python(py, &self.inner.bearing_sense)
     }
 
-    /// The sensor's error model as a dict (what `register(sensor=...)` takes).
+    /// The sensor's error model as a dict (what `register(sensor=...)` takes):
+    /// `sigma_r_const_m` (metres), `sigma_r_per_m` (metres per metre of range) and
+    /// `sigma_alpha_rad` (radians); `σ_r = sigma_r_const_m + sigma_r_per_m · range`.
     #[getter]
     fn sensor<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_python(py, &self.inner.sensor)

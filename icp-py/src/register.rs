@@ -57,7 +57,9 @@ impl Registration {
         &self.variant
     }
 
-    /// `(tx_m, ty_m, theta_rad)`: maps source points into the reference scan's frame.
+    /// `(tx_m, ty_m, theta_rad)`: metres, metres and radians (not degrees: `theta_deg` gives
+    /// the rotation in degrees, as the repr prints it); maps source points into the reference
+    /// scan's frame, the rotation from the scan frame's `+x` towards its `+y`.
     #[getter]
     fn t_ref_src(&self) -> (f64, f64, f64) {
         let t = &self.inner.t_ref_src;

@@ -15,9 +15,9 @@ use eval::render::write_outputs;
 use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::EstimatesSpec;
 use eval::run::init::InitChain;
-use eval::run::options::override_sensor;
 use eval::run::options::BuiltinOptions;
 use eval::run::options::RunOptions;
+use eval::run::options::{override_sensor, refuse_reference_options};
 use eval::run::setup::GlobalChecks;
 use eval::run::setup::OffsetChoice;
 use eval::run::setup::ReferenceChecks;
@@ -217,6 +217,13 @@ fn run_and_write<'py>(
         override_sensor(&mut ds, overrides)
             .map_err(|e| ConfigError::new_err(format!("option sensor: {e}")))?;
     }
+    let mut given = Vec::new();
+    for key in ["reference_offset", "reference_checks"] {
+        if options.raw(key)?.is_some() {
+            given.push(key);
+        }
+    }
+    refuse_reference_options(&ds, &given).map_err(eval_error)?;
     let builtin_for = |spec: VariantSpec| {
         let name = spec.name.clone();
         builtin_options
@@ -257,11 +264,13 @@ fn run_and_write<'py>(
                 func.repr()?
             )));
         }
-        let chain = builtin_for(builtin_spec(&base)?)?
+        let spec = builtin_for(builtin_spec(&base)?)?;
+        let weighting = PyWeighting::new(&func, &base, spec.sensor)?;
+        let chain = spec
             .build()
             .map_err(config_error)?
             .named(&name)
-            .with_batch_weighting(PyWeighting::new(&func, &base)?);
+            .with_batch_weighting(weighting);
         python_names.push(name);
         setup.variants.push(Box::new(chain) as Box<dyn Registrar>);
     }
@@ -309,7 +318,11 @@ fn run_and_write<'py>(
 /// Runs `variants` (built-in names, to which the options apply, or specs as dicts, taken as
 /// written; default: the four of Table 1) and the Python `weightings`
 /// (`{NAME: (BASE_VARIANT, fn)}`) over every consecutive pair of the dataset `uri`, writes
-/// the files of `icp-eval run` into `out` and returns `summary.json` as a dict.
+/// the files of `icp-eval run` into `out` and returns `summary.json` as a dict. Each `fn` gets
+/// a dict per iteration (the stub's `Weighting`: ranges and points in metres, bearings and
+/// `rotation_rad` in radians, each return's `src_sigma_r_m`, `dst_sigma_r_m` (metres) and
+/// `src_sigma_alpha_rad`, `dst_sigma_alpha_rad` (radians) from the variant's sensor model) and
+/// returns one weight per pair.
 #[pyfunction]
 #[pyo3(signature = (uri, variants=None, weightings=None, *, out, **options))]
 pub fn run<'py>(

@@ -1,11 +1,13 @@
 //! A weighting scheme written in Python: each iteration the function gets one dict of numpy
-//! arrays describing the pairs and returns their weights (checked by icp-core: one per pair,
-//! finite, ≥ 0). It runs under the GIL, so the Python calls of parallel registrations take
-//! turns; the rest of the loop runs without it.
+//! arrays describing the pairs (with each return's σ_r and σ_α from the variant's sensor
+//! model, eq. 8) and returns their weights (checked by icp-core: one per pair, finite, ≥ 0).
+//! It runs under the GIL, so the Python calls of parallel registrations take turns; the rest
+//! of the loop runs without it.
 
 use icp_core::pairs::PairSet;
 use icp_core::registry::StageSpec;
 use icp_core::weighting::BatchWeighting;
+use icp_core::SensorModel;
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -19,11 +21,14 @@ pub struct PyWeighting {
     qualname: String,
     /// The built-in variant whose weighting it replaces.
     base_variant: String,
+    /// The variant's sensor model (the run's, after `sensor=`): each return's σ in the dict.
+    sensor: SensorModel,
 }
 
 impl PyWeighting {
-    /// `func` (callable) replacing the weighting of `base_variant`.
-    pub fn new(func: &Bound<'_, PyAny>, base_variant: &str) -> PyResult<Self> {
+    /// `func` (callable) replacing the weighting of `base_variant`, whose sensor model is
+    /// `sensor`.
+    pub fn new(func: &Bound<'_, PyAny>, base_variant: &str, sensor: SensorModel) -> PyResult<Self> {
         let qualname = func
             .getattr("__qualname__")
             .and_then(|q| q.extract::<String>())
@@ -32,17 +37,19 @@ impl PyWeighting {
             func: func.clone().unbind(),
             qualname,
             base_variant: base_variant.to_owned(),
+            sensor,
         })
     }
 
     /// The pairs of `set` as the dict the function gets.
     fn arrays<'py>(
+        &self,
         py: Python<'py>,
         set: &PairSet<'_>,
         iteration: usize,
     ) -> PyResult<Bound<'py, PyDict>> {
         let n = set.pairs.len();
-        let mut columns: [Vec<f64>; 10] = std::array::from_fn(|_| Vec::with_capacity(n));
+        let mut columns: [Vec<f64>; NAMES.len()] = std::array::from_fn(|_| Vec::with_capacity(n));
         for (i, c) in set.pairs.iter().enumerate() {
             let (src, dst) = (&set.src[c.src], &set.dst[c.dst]);
             let moved = set.src_moved[c.src];
@@ -58,6 +65,10 @@ impl PyWeighting {
                 dst.point.y,
                 normal.map_or(f64::NAN, |v| v.x),
                 normal.map_or(f64::NAN, |v| v.y),
+                self.sensor.sigma_r_m(src.range_m),
+                self.sensor.sigma_r_m(dst.range_m),
+                self.sensor.sigma_alpha_rad,
+                self.sensor.sigma_alpha_rad,
             ];
             for (column, value) in columns.iter_mut().zip(values) {
                 column.push(value);
@@ -74,7 +85,7 @@ impl PyWeighting {
 }
 
 /// The arrays of the dict, in the order [`PyWeighting::arrays`] fills them.
-const NAMES: [&str; 10] = [
+const NAMES: [&str; 14] = [
     "src_range_m",
     "dst_range_m",
     "src_bearing_rad",
@@ -85,6 +96,10 @@ const NAMES: [&str; 10] = [
     "dst_y_m",
     "normal_x",
     "normal_y",
+    "src_sigma_r_m",
+    "dst_sigma_r_m",
+    "src_sigma_alpha_rad",
+    "dst_sigma_alpha_rad",
 ];
 
 impl BatchWeighting for PyWeighting {
@@ -100,7 +115,7 @@ impl BatchWeighting for PyWeighting {
         out: &mut Vec<f64>,
     ) -> Result<(), String> {
         Python::attach(|py| {
-            let pairs = Self::arrays(py, set, iteration)?;
+            let pairs = self.arrays(py, set, iteration)?;
             let returned = self.func.bind(py).call1((pairs,))?;
             let numpy = py.import("numpy")?;
             let weights = numpy

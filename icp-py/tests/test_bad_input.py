@@ -109,3 +109,27 @@ def test_bad_datasets(tmp_path):
     with pytest.raises(icp_bench.DataError) as e:
         icp_bench.load(f"carmen:{bad}")
     assert "bad.log" in str(e.value)
+
+
+def test_options_that_do_not_apply(tmp_path, icp_eval):
+    """Issue 33: a dataset option the data leave nothing to do for, and the reference's options
+    on a dataset without a reference, are refused rather than ignored."""
+    import subprocess
+    data = tmp_path / "data"
+    subprocess.run([icp_eval, "synth", "--scenario", "marina-like", "--scans", "4", "--out",
+                    data], check=True, capture_output=True)
+    with pytest.raises(icp_bench.DataError, match="option dt_s .* does not apply"):
+        icp_bench.load(f"csv:{data}?dt_s=0.5")
+    with pytest.raises(icp_bench.DataError, match="option scans = \"1\": at least 2"):
+        icp_bench.load(f"csv:{data}?scans=1")
+    assert len(icp_bench.load(f"csv:{data}?scans=3")) == 3
+    (data / "poses.csv").unlink()
+    meta = (data / "dataset.json").read_text().replace('"reference_kind": "ground_truth"',
+                                                      '"reference_kind": null')
+    (data / "dataset.json").write_text(meta)
+    for option, value in [("reference_offset", "auto"), ("reference_checks", "off")]:
+        with pytest.raises(icp_bench.ConfigError,
+                           match=f"^{option} does not apply to synthetic:marina-like: it has no "
+                                 "reference"):
+            icp_bench.run(f"csv:{data}", ["HD_ICP"], out=tmp_path / "out", plots=False,
+                          **{option: value})

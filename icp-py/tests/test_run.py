@@ -52,7 +52,8 @@ def test_the_function_gets_the_pairs(tmp_path):
                   threads=1, global_check="off")
     first = seen[0]
     names = {"src_range_m", "dst_range_m", "src_bearing_rad", "dst_bearing_rad", "src_x_m",
-             "src_y_m", "dst_x_m", "dst_y_m", "normal_x", "normal_y"}
+             "src_y_m", "dst_x_m", "dst_y_m", "normal_x", "normal_y", "src_sigma_r_m",
+             "dst_sigma_r_m", "src_sigma_alpha_rad", "dst_sigma_alpha_rad"}
     assert names <= set(first)
     n = len(first["src_range_m"])
     for name in names:
@@ -64,6 +65,39 @@ def test_the_function_gets_the_pairs(tmp_path):
     unit = np.hypot(first["normal_x"], first["normal_y"])
     assert np.allclose(unit[~np.isnan(unit)], 1.0)
     assert any(p["iteration"] > 0 and p["rotation_rad"] != 0.0 for p in seen)
+
+
+def sigmas_seen(tmp_path, name, **options):
+    """The σ fields and ranges of every dict a recording weighting gets in a run."""
+    seen = []
+
+    def record(pairs):
+        seen.append({k: np.array(pairs[k]) for k in (
+            "src_range_m", "dst_range_m", "src_sigma_r_m", "dst_sigma_r_m",
+            "src_sigma_alpha_rad", "dst_sigma_alpha_rad")})
+        return np.ones_like(pairs["src_range_m"])
+
+    icp_bench.run(SMALL, [], {"REC": ("H_ICP", record)}, out=tmp_path / name, plots=False,
+                  threads=1, global_check="off", **options)
+    assert seen
+    return seen
+
+
+def test_the_pairs_carry_each_returns_sensor_sigma(tmp_path, small):
+    """Issue 33: users hard-coded 0.004258 * r. Each return's σ_r (m) and σ_α (rad) come
+    from the run's sensor model: sigma_r_const_m + sigma_r_per_m * range, and sigma_alpha_rad."""
+    for name, options, model in [
+        ("dataset", {}, small.sensor),
+        ("overridden", {"sensor": {"sigma_r_const_m": 0.01, "sigma_alpha_deg": 0.25}},
+         dict(small.sensor, sigma_r_const_m=0.01, sigma_alpha_rad=np.radians(0.25))),
+    ]:
+        for p in sigmas_seen(tmp_path, name, **options):
+            for end in ("src", "dst"):
+                sigma_r = model["sigma_r_const_m"] + model["sigma_r_per_m"] * p[f"{end}_range_m"]
+                assert np.allclose(p[f"{end}_sigma_r_m"], sigma_r, rtol=1e-15, atol=0), name
+                assert p[f"{end}_sigma_alpha_rad"].shape == p[f"{end}_range_m"].shape
+                assert np.allclose(p[f"{end}_sigma_alpha_rad"], model["sigma_alpha_rad"],
+                                   rtol=1e-15, atol=0), name
 
 
 def test_results_do_not_depend_on_the_thread_count(tmp_path):

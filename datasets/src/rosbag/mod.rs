@@ -519,6 +519,7 @@ pub fn from_bag(path: &Path, bag: &Bag, options: &RosbagOptions) -> Result<Datas
         sweep_s: sweep_s(&laser),
         bearing_sense: BearingSense::CounterClockwise,
         warnings,
+        first_scans: None,
     }
     .checked())
 }

@@ -413,6 +413,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         sensor: sc.sensor,
         bearing_sense: BearingSense::CounterClockwise,
         warnings: Vec::new(),
+        first_scans: None,
     }
     .checked())
 }

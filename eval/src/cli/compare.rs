@@ -36,6 +36,7 @@ pub(crate) struct CompareArgs {
 pub(crate) fn compare_cmd(args: CompareArgs) -> Result<ExitCode> {
     let run = &args.run;
     let ds = load_dataset(&run.data)?;
+    run.refuse_reference_options(&ds)?;
     let variants = resolve_variants(&run.variants, &ds)?;
     let options = CompareOptions {
         resamples: args.bootstrap,

@@ -5,11 +5,12 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 use clap::Args;
+use datasets::Dataset;
 use eval::render::markdown::table_md;
 use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::{EstimatesSpec, TILT_NOTE_DEG};
 use eval::run::init::InitChain;
-use eval::run::options::RunOptions;
+use eval::run::options::{refuse_reference_options, RunOptions};
 use eval::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use eval::run::start_gate::StartGate;
 use eval::shard::Work;
@@ -25,13 +26,17 @@ pub(crate) struct RunArgs {
     pub(crate) data: DataArgs,
     #[command(flatten)]
     pub(crate) variants: VariantArgs,
-    /// Reference time offset in scans, or `auto` to apply the estimated one.
-    #[arg(long, default_value = "0")]
-    pub(crate) reference_offset: OffsetChoice,
-    /// Test the reference steps for plausibility (`on`, for measured references such as GNSS)
-    /// or take every step as plausible (`off`, for ground truth).
-    #[arg(long, value_enum, default_value_t = ReferenceChecks::On)]
-    pub(crate) reference_checks: ReferenceChecks,
+    /// Reference time offset to apply: N scans (the reference of pair k + N is compared with
+    /// estimate k), or `auto`: the estimated one (the lag whose correlation beats lag 0 by
+    /// 0.05 or more, else 0). The default, 0, never applies one, whatever table.md says was
+    /// estimated. Refused on a dataset without a reference.
+    #[arg(long)]
+    pub(crate) reference_offset: Option<OffsetChoice>,
+    /// Test the reference steps for plausibility (`on`, the default, for measured references
+    /// such as GNSS) or take every step as plausible (`off`, for ground truth). Refused on a
+    /// dataset without a reference.
+    #[arg(long, value_enum)]
+    pub(crate) reference_checks: Option<ReferenceChecks>,
     /// Where each registration starts (help generated from the registered modes).
     #[arg(long, default_value = "identity")]
     pub(crate) init: InitChain,
@@ -88,8 +93,8 @@ impl RunArgs {
     /// The options a sharded run's plan records.
     pub(crate) fn run_options(&self) -> Result<RunOptions> {
         Ok(RunOptions {
-            offset: self.reference_offset,
-            reference_checks: self.reference_checks,
+            offset: self.reference_offset.unwrap_or(OffsetChoice::Fixed(0)),
+            reference_checks: self.reference_checks.unwrap_or(ReferenceChecks::On),
             init: self.init.clone(),
             global: self.global()?,
             global_check: self.global_check,
@@ -98,6 +103,18 @@ impl RunArgs {
             estimates: self.estimates.clone(),
             lags: self.lags,
         })
+    }
+
+    /// Refuses `--reference-offset` and `--reference-checks` on a dataset without a reference.
+    pub(crate) fn refuse_reference_options(&self, ds: &Dataset) -> Result<()> {
+        let given: Vec<&'static str> = [
+            ("--reference-offset", self.reference_offset.is_some()),
+            ("--reference-checks", self.reference_checks.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, set)| set.then_some(flag))
+        .collect();
+        Ok(refuse_reference_options(ds, &given)?)
     }
 
     /// The global search's parameters from the options.
@@ -119,6 +136,7 @@ impl RunArgs {
 
 pub(crate) fn run_one(args: RunArgs) -> Result<ExitCode> {
     let ds = load_dataset(&args.data)?;
+    args.refuse_reference_options(&ds)?;
     let specs = resolve_variants(&args.variants, &ds)?;
     if let Some(shard) = shard_of(&args.shard)? {
         let work = Work::Run(args.run_options()?);

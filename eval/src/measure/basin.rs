@@ -167,6 +167,10 @@ pub struct VariantBasin {
 pub struct BasinReport {
     /// Dataset name.
     pub dataset: String,
+    /// When only the first scans of the dataset were kept (`--scans N`; see
+    /// [`datasets::Dataset::first_scans`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_scans: Option<datasets::FirstScans>,
     /// The options.
     pub options: BasinOptions,
     /// Pairs run.
@@ -197,6 +201,7 @@ pub fn report(
         .collect();
     BasinReport {
         dataset: ds.provenance.name.clone(),
+        first_scans: ds.first_scans,
         options: *options,
         pairs,
         success_trans_m: SUCCESS_TRANS_M,

@@ -225,6 +225,7 @@ pub fn build(
             odometry: ds.odometry.is_some(),
             scanner_offset: ds.scanner_offset,
             sweep_s: ds.sweep_s,
+            first_scans: ds.first_scans,
         },
         config: RunConfig {
             variants: setup.variants.iter().map(|v| v.spec()).collect(),

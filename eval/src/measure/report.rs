@@ -2,7 +2,7 @@
 //! TUM trajectories, the figures and `report.html` are all rendered (built by the `build`
 //! module from the records).
 
-use datasets::{FileProvenance, LoadWarning, Pose2, ReferenceKind, SkippedPair};
+use datasets::{FileProvenance, FirstScans, LoadWarning, Pose2, ReferenceKind, SkippedPair};
 use icp_core::variants::VariantSpec;
 use icp_core::{BearingSense, SensorModel};
 use nalgebra::Isometry2;
@@ -200,6 +200,11 @@ pub struct DatasetInfo {
     /// unknown.
     #[serde(default)]
     pub sweep_s: Option<f64>,
+    /// When the run kept only the first scans of a dataset read from files (`--scans N`): how
+    /// many were asked for and how many the data have (`scans` is the smaller). Absent: every
+    /// scan read (a synthetic run generates its `--scans`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first_scans: Option<FirstScans>,
 }
 
 /// The reference's trustworthiness.

@@ -127,3 +127,17 @@ pub fn override_sensor(
     });
     Ok(())
 }
+
+/// Refuses the options about the reference (its time offset, its checks) on a dataset that has
+/// none, where they would do nothing: `given` are those the user set, named as written
+/// (`--reference-offset` on the command line, `reference_offset` in Python).
+pub fn refuse_reference_options(ds: &Dataset, given: &[&'static str]) -> Result<(), EvalError> {
+    match given.first() {
+        Some(&option) if ds.reference.is_none() => Err(EvalError::NotApplicable {
+            option,
+            dataset: ds.provenance.name.clone(),
+            why: "it has no reference to align in time or check",
+        }),
+        _ => Ok(()),
+    }
+}

@@ -10,8 +10,11 @@ pub fn basin_md(report: &BasinReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# Convergence basin — {}\n\n{} pairs × {} starts within {} m and ±{}° of the true motion (seed {}); success: within {} m and {}° of it.\n",
+        "# Convergence basin — {}{}\n\n{} pairs × {} starts within {} m and ±{}° of the true motion (seed {}); success: within {} m and {}° of it.\n",
         report.dataset,
+        report
+            .first_scans
+            .map_or_else(String::new, |f| format!(" ({f})")),
         report.pairs,
         o.perturbations,
         o.max_translation_m,

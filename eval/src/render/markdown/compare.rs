@@ -16,6 +16,9 @@ pub fn compare_md(
         "# Paired comparison — {} ({} pairs)\n",
         report.dataset.name, report.dataset.pairs
     );
+    if let Some(sentence) = crate::render::markdown::reference::no_reference_sentence(report) {
+        let _ = writeln!(s, "{sentence}");
+    }
     let _ = writeln!(
         s,
         "Per pair, Δ = |error of A| − |error of B| over the pairs every variant registered whose reference is plausible; \

@@ -16,6 +16,7 @@ pub mod compare;
 pub mod consistency;
 pub mod cycles;
 pub mod gate;
+pub mod reference;
 pub mod reference_floor;
 pub mod scaling;
 pub mod sweep;
@@ -375,10 +376,12 @@ pub fn table_md(report: &RunReport) -> String {
     };
     let _ = writeln!(
         out,
-        "# {} — {} pairs of {} scans, Δt = {} s{spread}\n",
+        "# {} — {} pairs of {} scans{}, Δt = {} s{spread}\n",
         d.name,
         d.pairs,
         d.scans,
+        d.first_scans
+            .map_or_else(String::new, |f| format!(" ({f})")),
         seconds(d.dt_s)
     );
     let reference = d
@@ -393,6 +396,9 @@ pub fn table_md(report: &RunReport) -> String {
         )
     });
     let _ = writeln!(out, "Reference: {reference}.{sensor}\n");
+    if let Some(sentence) = reference::no_reference_sentence(report) {
+        let _ = writeln!(out, "{sentence}");
+    }
     reference_floor::floor_line(&mut out, report);
     if !d.warnings.is_empty() {
         let _ = writeln!(out, "Load warnings:\n");
@@ -457,21 +463,7 @@ pub fn table_md(report: &RunReport) -> String {
         out.push('\n');
     }
     let r = &report.reference;
-    if let Some(o) = r.offset_estimate {
-        let _ = writeln!(
-            out,
-            "Reference time offset: estimated {} scans ({:.2} s; correlation score {:.3} vs {:.3} at 0; best lag {} scoring {:.3}, accepted only with a gain of {} or more; from {}); applied {} scans.\n",
-            o.scans,
-            o.seconds,
-            o.score,
-            o.score_at_zero,
-            o.best_lag_scans,
-            o.best_score,
-            o.min_score_gain,
-            r.offset_from_variant.as_deref().unwrap_or("–"),
-            r.offset_applied_scans
-        );
-    }
+    reference::offset_md(&mut out, report);
     if r.available && r.checks == ReferenceChecks::Off {
         let _ = writeln!(
             out,
