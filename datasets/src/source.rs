@@ -101,6 +101,11 @@ pub static KINDS: &[Kind] = &[
                 name: "dt_s",
                 help: "time between scans, s (default: the scenario's; also --dt)",
             },
+            OptionDoc {
+                name: "boats",
+                help: "rough only: the moving boats, a JSON file of them or none (default: the \
+                       built-in three, configs/boats/harbour.json)",
+            },
         ],
         open: open_synthetic,
     },
@@ -499,7 +504,7 @@ fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
     if let Some(n) = s.get("scans", "a count of scans")? {
         scenario.n_scans = n;
     }
-    synthetic::generate(&scenario)
+    synthetic::generate_with_boats(&scenario, s.raw("boats"))
 }
 
 fn open_carmen(s: &DatasetSource) -> Result<Dataset, DatasetError> {

@@ -282,6 +282,89 @@ fn synth_writes_a_dataset_that_run_reads_back() {
     assert_eq!(read_pairs(&out).len(), 11);
 }
 
+/// `synth --scenario rough --boats FILE` writes the moving labels and a description naming the
+/// boats and their file; `run` on `synthetic:rough?boats=FILE` lists the file in summary.json;
+/// `--boats` is refused for a scenario without boats.
+#[test]
+fn synth_rough_with_a_boats_file_labels_the_returns_and_names_the_boats() {
+    let dir = common::scratch_dir("synth_boats");
+    let boats = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/boats/harbour.json");
+    let boats = boats.to_str().unwrap();
+    let data = dir.join("data");
+    let o = icp_eval(&[
+        "synth",
+        "--scenario",
+        "rough",
+        "--scans",
+        "5",
+        "--boats",
+        boats,
+        "--out",
+        data.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let back = datasets::csvdir::load(&data).unwrap();
+    let rough = datasets::synthetic::Scenario {
+        n_scans: 5,
+        ..datasets::synthetic::Scenario::rough()
+    };
+    let fresh = datasets::synthetic::generate_with_boats(&rough, Some(boats)).unwrap();
+    assert_eq!(
+        back.scans, fresh.scans,
+        "bit for bit, moving labels included"
+    );
+    assert!(back
+        .scans
+        .iter()
+        .any(|s| s.moving().unwrap().contains(&true)));
+    assert_eq!(back.provenance.description, fresh.provenance.description);
+    assert!(
+        back.provenance
+            .description
+            .contains("3 moving boats (6 × 2.4 m in lane -4 m")
+            && back.provenance.description.contains(&format!(
+                "boats from {boats} (sha256 {})",
+                fresh.provenance.files[0].sha256
+            )),
+        "{}",
+        back.provenance.description
+    );
+    let out = dir.join("out");
+    let spec = format!("synthetic:rough?scans=3&boats={boats}");
+    let o = icp_eval(&[
+        "run",
+        "--dataset",
+        &spec,
+        "--variants",
+        "HD_ICP",
+        "--reference-checks",
+        "off",
+        "--quiet",
+        "--no-plots",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: RunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary.dataset.files, fresh.provenance.files);
+    let o = icp_eval(&[
+        "synth",
+        "--scenario",
+        "paper",
+        "--boats",
+        "none",
+        "--out",
+        dir.join("paper").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("the \"paper\" scenario has no moving boats to replace"),
+        "{stderr}"
+    );
+}
+
 #[test]
 fn compare_writes_paired_statistics_and_a_sweep() {
     let dir = common::scratch_dir("compare");

@@ -28,10 +28,12 @@ use crate::DatasetError;
 pub mod rough;
 mod scanner;
 mod track;
+mod traffic;
 mod world;
 
 pub use rough::Rough;
 pub use scanner::{Revolution, Scanner};
+pub use traffic::{generate_with_boats, read_boats, BoatsError, NO_BOATS};
 pub use world::{Segment, Surface};
 
 use track::Track;
@@ -383,6 +385,13 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
             scan_yaw_rad: Some(yaw),
         });
     }
+    let rough_part = scenario.rough.as_ref().map_or_else(String::new, |r| {
+        format!(
+            "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, {} (the dataset's \
+             sensor model is the nominal one)",
+            rough::Boat::describe(&r.boats)
+        )
+    });
     Ok(Dataset {
         provenance: Provenance {
             name: format!("synthetic:{}", scenario.name),
@@ -393,12 +402,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
                 scenario.dt_s,
                 scenario.speed_mps,
                 scenario.seed,
-                if scenario.rough.is_some() {
-                    "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, moving boats \
-                     (the dataset's sensor model is the nominal one)"
-                } else {
-                    ""
-                }
+                rough_part,
             ),
             files: Vec::new(),
         },

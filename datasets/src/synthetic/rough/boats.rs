@@ -63,6 +63,42 @@ impl Boat {
         ]
     }
 
+    /// The first field out of its domain: its name, value and why. A boat needs a finite,
+    /// positive length and beam and a finite lane, start and rate.
+    pub fn invalid(&self) -> Option<(&'static str, f64, &'static str)> {
+        let size = |v: f64| v.is_finite() && v > 0.0;
+        let (positive, finite) = ("must be finite and positive", "must be finite");
+        [
+            ("length_m", self.length_m, size(self.length_m), positive),
+            ("beam_m", self.beam_m, size(self.beam_m), positive),
+            ("lane_m", self.lane_m, self.lane_m.is_finite(), finite),
+            ("start_s", self.start_s, self.start_s.is_finite(), finite),
+            ("rate", self.rate, self.rate.is_finite(), finite),
+        ]
+        .into_iter()
+        .find(|c| !c.2)
+        .map(|(name, value, _, why)| (name, value, why))
+    }
+
+    /// The boats in words, for a dataset's description: how many, and each one's size, lane,
+    /// start and rate.
+    pub fn describe(boats: &[Boat]) -> String {
+        if boats.is_empty() {
+            return "no moving boats".to_owned();
+        }
+        let each: Vec<String> = boats
+            .iter()
+            .map(|b| {
+                format!(
+                    "{} × {} m in lane {} m, start {} s, rate {}",
+                    b.length_m, b.beam_m, b.lane_m, b.start_s, b.rate
+                )
+            })
+            .collect();
+        let plural = if boats.len() == 1 { "" } else { "s" };
+        format!("{} moving boat{plural} ({})", boats.len(), each.join("; "))
+    }
+
     /// The boat's pose at `t_s` from the track's pose at track time `τ`, `track(τ)`, over a run of
     /// `duration_s`.
     pub fn pose(

@@ -171,20 +171,7 @@ impl Rough {
                 "every wave needs a finite amplitude and a positive period",
             ));
         }
-        let boat_ok = |b: &Boat| {
-            positive(b.length_m)
-                && positive(b.beam_m)
-                && b.lane_m.is_finite()
-                && b.start_s.is_finite()
-                && b.rate.is_finite()
-        };
-        self.boats.iter().find(|b| !boat_ok(b)).map(|b| {
-            (
-                "boats",
-                b.length_m,
-                "every boat needs a positive size and finite lane, start and rate",
-            )
-        })
+        self.boats.iter().find_map(Boat::invalid)
     }
 
     fn top_m(&self, surface: Surface) -> f64 {
