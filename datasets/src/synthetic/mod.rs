@@ -387,8 +387,8 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     }
     let rough_part = scenario.rough.as_ref().map_or_else(String::new, |r| {
         format!(
-            "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, {} (the dataset's \
-             sensor model is the nominal one)",
+            "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, {}; the dataset's \
+             sensor model is the nominal one",
             rough::Boat::describe(&r.boats)
         )
     });
