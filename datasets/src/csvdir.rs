@@ -1,6 +1,6 @@
 //! Our own plain-text format, so anyone can bring their data (see `datasets/README.md`): a
 //! directory with `scans.csv` (one row per reading, optionally with the true surface normal
-//! behind it), optionally `poses.csv` (one reference pose per scan), `odometry.csv` (one
+//! behind it and whether it came from a moving object), optionally `poses.csv` (one reference pose per scan), `odometry.csv` (one
 //! odometry pose per scan: `scan,x_m,y_m,yaw_rad`, a rigid pose in the odometry's own frame,
 //! yaw from `+x` towards `+y`) and `dataset.json` (name, timing, senses, sensor model, what the
 //! reference is, the scanner's offset).
@@ -12,7 +12,8 @@ use std::fmt::Write as _;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
-use icp_core::{BearingSense, Scan, SensorModel};
+use icp_core::scan::is_no_return;
+use icp_core::{BearingSense, ReadingTruth, Scan, SensorModel};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 
@@ -21,9 +22,13 @@ use crate::dataset::{
 };
 use crate::{DatasetError, LoadWarning};
 
+mod moving;
+use moving::MovingCell;
+
 /// Readings, one row each: `scan,timestamp_s,range_m,bearing_rad`, optionally followed by
 /// `true_normal_x,true_normal_y` (the true surface normal behind the return, unitless, scan
-/// frame; both cells empty when unknown). The two normal columns come together or not at all.
+/// frame; both cells empty when unknown; the two come together or not at all) and by `moving`
+/// (1: the return came from a moving object, 0: it did not; empty on a no-return).
 pub const SCANS_FILE: &str = "scans.csv";
 
 /// The columns every `scans.csv` has.
@@ -79,6 +84,8 @@ struct ReadingRow {
     true_normal_x: Option<f64>,
     #[serde(default)]
     true_normal_y: Option<f64>,
+    #[serde(default)]
+    moving: MovingCell,
 }
 
 impl ReadingRow {
@@ -230,13 +237,13 @@ fn csv_error(path: &Path, e: &csv::Error) -> DatasetError {
     }
 }
 
-/// Every row of a CSV file whose header has exactly `columns`, plus either all of `optional`
-/// or none of them, deserialized, with its line.
+/// Every row of a CSV file whose header has exactly `columns`, plus of each group of
+/// `optional` either all or none, deserialized, with its line.
 fn rows<T: serde::de::DeserializeOwned, R: Read>(
     path: &Path,
     reader: R,
     columns: &[&str],
-    optional: &[&str],
+    optional: &[&[&str]],
 ) -> Result<Vec<(usize, T)>, DatasetError> {
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
@@ -247,11 +254,9 @@ fn rows<T: serde::de::DeserializeOwned, R: Read>(
         line: 1,
         what,
     };
-    let expected = if optional.is_empty() {
-        columns.join(",")
-    } else {
-        format!("{}[,{}]", columns.join(","), optional.join(","))
-    };
+    let expected = optional.iter().fold(columns.join(","), |e, group| {
+        format!("{e}[,{}]", group.join(","))
+    });
     let has = |c: &str| headers.iter().any(|h| h == c);
     if let Some(missing) = columns.iter().find(|c| !has(c)) {
         return Err(header_error(format!(
@@ -260,19 +265,21 @@ fn rows<T: serde::de::DeserializeOwned, R: Read>(
     }
     if let Some(extra) = headers
         .iter()
-        .find(|h| !columns.contains(h) && !optional.contains(h))
+        .find(|h| !columns.contains(h) && !optional.iter().any(|g| g.contains(h)))
     {
         return Err(header_error(format!(
             "unknown column {extra:?} (expected {expected})"
         )));
     }
-    if let (Some(present), Some(absent)) = (
-        optional.iter().find(|c| has(c)),
-        optional.iter().find(|c| !has(c)),
-    ) {
-        return Err(header_error(format!(
-            "column {present:?} without {absent:?} (expected {expected})"
-        )));
+    for group in optional {
+        if let (Some(present), Some(absent)) = (
+            group.iter().find(|c| has(c)),
+            group.iter().find(|c| !has(c)),
+        ) {
+            return Err(header_error(format!(
+                "column {present:?} without {absent:?} (expected {expected})"
+            )));
+        }
     }
     let mut record = csv::StringRecord::new();
     let mut out = Vec::new();
@@ -364,21 +371,27 @@ pub fn parse<R: Read>(
     let (scans_path, reader) = scans;
     let mut out: Vec<Scan> = Vec::new();
     let (mut ranges, mut bearings, mut normals) = (Vec::new(), Vec::new(), Vec::new());
+    // Each reading's moving label, when the file has the column.
+    let (mut moving, mut labelled) = (Vec::new(), false);
     let mut current: Option<(usize, Option<f64>)> = None;
     let finish = |id: usize,
                   ts: Option<f64>,
                   ranges: &[f64],
                   bearings: &[f64],
-                  normals: &[Option<Vector2<f64>>]|
+                  normals: &[Option<Vector2<f64>>],
+                  moving: Option<&[bool]>|
      -> Result<Scan, DatasetError> {
-        let scan =
-            Scan::from_polar_with_true_normals(ranges, bearings, normals).map_err(|source| {
-                DatasetError::Scan {
-                    path: scans_path.to_path_buf(),
-                    scan: id,
-                    source,
-                }
-            })?;
+        let truth = ReadingTruth {
+            true_normals: Some(normals),
+            moving,
+        };
+        let scan = Scan::from_polar_with_truth(ranges, bearings, truth).map_err(|source| {
+            DatasetError::Scan {
+                path: scans_path.to_path_buf(),
+                scan: id,
+                source,
+            }
+        })?;
         match ts {
             Some(t) => scan.with_timestamp(t).map_err(|source| DatasetError::Scan {
                 path: scans_path.to_path_buf(),
@@ -388,7 +401,8 @@ pub fn parse<R: Read>(
             None => Ok(scan),
         }
     };
-    for (line, row) in rows::<ReadingRow, _>(scans_path, reader, &SCAN_COLUMNS, &NORMAL_COLUMNS)? {
+    let optional: [&[&str]; 2] = [&NORMAL_COLUMNS, &[moving::COLUMN]];
+    for (line, row) in rows::<ReadingRow, _>(scans_path, reader, &SCAN_COLUMNS, &optional)? {
         let bad = |what: String| DatasetError::Parse {
             path: scans_path.to_path_buf(),
             line,
@@ -412,10 +426,12 @@ pub fn parse<R: Read>(
                         row.scan
                     )));
                 }
-                out.push(finish(id, ts, &ranges, &bearings, &normals)?);
+                let labels = labelled.then_some(&moving[..]);
+                out.push(finish(id, ts, &ranges, &bearings, &normals, labels)?);
                 ranges.clear();
                 bearings.clear();
                 normals.clear();
+                moving.clear();
                 current = Some((row.scan, row.timestamp_s));
             }
             None => {
@@ -428,12 +444,17 @@ pub fn parse<R: Read>(
                 current = Some((0, row.timestamp_s));
             }
         }
-        ranges.push(row.range_m.unwrap_or(f64::NAN));
+        let range_m = row.range_m.unwrap_or(f64::NAN);
+        let label = row.moving.label(is_no_return(range_m)).map_err(bad)?;
+        labelled = label.is_some();
+        moving.push(label.unwrap_or(false));
+        ranges.push(range_m);
         bearings.push(row.bearing_rad.unwrap_or(f64::NAN));
         normals.push(row.true_normal().map_err(bad)?);
     }
     if let Some((id, ts)) = current {
-        out.push(finish(id, ts, &ranges, &bearings, &normals)?);
+        let labels = labelled.then_some(&moving[..]);
+        out.push(finish(id, ts, &ranges, &bearings, &normals, labels)?);
     }
     let scans = (scans_path, out.len());
     let reference = poses
@@ -522,7 +543,8 @@ pub fn parse<R: Read>(
 /// Writes `ds` as a dataset directory (creating it): `scans.csv`, `dataset.json`, and
 /// `poses.csv` and `odometry.csv` when it has those channels. Each scan's no-returns are
 /// written as rows with empty range and bearing, so the counts survive the round trip. The true-normal
-/// columns are written when any scan carries true normals, empty where a normal is unknown.
+/// columns are written when any scan carries true normals, empty where a normal is unknown; the
+/// `moving` column when every scan with returns carries moving labels (empty on no-returns).
 pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
     std::fs::create_dir_all(dir).map_err(|source| DatasetError::Io {
         path: dir.to_path_buf(),
@@ -530,14 +552,23 @@ pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
     })?;
     let opt = |v: Option<f64>| v.map_or_else(String::new, |v| v.to_string());
     let with_normals = ds.scans.iter().any(|s| s.true_normals().is_some());
+    let with_moving = ds.scans.iter().any(|s| s.moving().is_some())
+        && ds
+            .scans
+            .iter()
+            .all(|s| s.is_empty() || s.moving().is_some());
     let mut s = SCAN_COLUMNS.join(",");
     if with_normals {
         let _ = write!(s, ",{}", NORMAL_COLUMNS.join(","));
+    }
+    if with_moving {
+        let _ = write!(s, ",{}", moving::COLUMN);
     }
     s.push('\n');
     for (k, scan) in ds.scans.iter().enumerate() {
         let ts = opt(scan.timestamp_s());
         let normals = scan.true_normals();
+        let moving = scan.moving().filter(|_| with_moving);
         for (i, r) in scan.returns().iter().enumerate() {
             let _ = write!(s, "{k},{ts},{},{}", r.range_m, r.bearing_rad);
             if with_normals {
@@ -548,12 +579,18 @@ pub fn write(dir: &Path, ds: &Dataset) -> Result<(), DatasetError> {
                     None => s.push_str(",,"),
                 }
             }
+            if let Some(moving) = moving {
+                let _ = write!(s, ",{}", u8::from(moving[i]));
+            }
             s.push('\n');
         }
         for _ in 0..scan.no_returns() {
             let _ = write!(s, "{k},{ts},,");
             if with_normals {
                 s.push_str(",,");
+            }
+            if with_moving {
+                s.push(',');
             }
             s.push('\n');
         }

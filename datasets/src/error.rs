@@ -97,6 +97,9 @@ pub enum DatasetError {
         #[source]
         source: Box<crate::rosbag::tf::TfError>,
     },
+    /// Boats for the rough harbour that cannot be used.
+    #[error(transparent)]
+    Boats(#[from] crate::synthetic::BoatsError),
     /// A `--dataset` string that does not name a loadable dataset.
     #[error(transparent)]
     Source(#[from] crate::source::SourceError),

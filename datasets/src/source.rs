@@ -113,6 +113,11 @@ pub static KINDS: &[Kind] = &[
                 flag: Some("--dt"),
                 help: "time between scans, s (default: the scenario's)",
             },
+            OptionDoc {
+                name: "boats",
+                help: "rough only: the moving boats, a JSON file of them or none (default: the \
+                       built-in three, configs/boats/harbour.json)",
+            },
         ],
         open: open_synthetic,
     },
@@ -630,7 +635,7 @@ fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
     if let Some(n) = s.scans()? {
         scenario.n_scans = n;
     }
-    synthetic::generate(&scenario)
+    synthetic::generate_with_boats(&scenario, s.raw("boats"))
 }
 
 fn open_carmen(s: &DatasetSource) -> Result<Dataset, DatasetError> {

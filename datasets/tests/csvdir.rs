@@ -17,23 +17,32 @@ fn tmp(name: &str) -> PathBuf {
 
 #[test]
 fn written_and_read_back_bit_for_bit() {
-    let ds = generate(&Scenario {
-        n_scans: 8,
-        ..Scenario::paper()
-    })
-    .unwrap();
-    let dir = tmp("csv_roundtrip");
+    for scenario in [Scenario::paper(), Scenario::rough()] {
+        round_trip(Scenario {
+            n_scans: 8,
+            ..scenario
+        });
+    }
+}
+
+/// `scenario`'s dataset written and read back: the same bit for bit, true normals and moving
+/// labels included.
+fn round_trip(scenario: Scenario) {
+    let ds = generate(&scenario).unwrap();
+    let dir = tmp(&format!("csv_roundtrip_{}", scenario.name));
     csvdir::write(&dir, &ds).unwrap();
     let back = csvdir::load(&dir).unwrap();
     assert_eq!(back.scans, ds.scans);
     assert_eq!(back.reference, ds.reference);
     assert_eq!(back.dt_s, ds.dt_s);
+    assert_eq!(back.sweep_s, ds.sweep_s);
     assert_eq!(back.sensor, ds.sensor);
     assert_eq!(
         (back.bearing_sense, back.reference_heading_sense),
         (ds.bearing_sense, ds.reference_heading_sense)
     );
     assert_eq!(back.provenance.name, ds.provenance.name);
+    assert_eq!(back.provenance.description, ds.provenance.description);
     assert_eq!(back.provenance.files.len(), 3);
     assert_eq!(back.reference_kind, Some(ReferenceKind::GroundTruth));
     assert_eq!(back.scanner_offset, Some(Pose2::IDENTITY));
@@ -44,7 +53,8 @@ fn written_and_read_back_bit_for_bit() {
     );
     // The true normals come back bit for bit, unknown ones (spurious returns) included.
     let text = std::fs::read_to_string(dir.join("scans.csv")).unwrap();
-    assert!(text.starts_with("scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n"));
+    assert!(text
+        .starts_with("scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y,moving\n"));
     let bits = |ds: &datasets::Dataset| -> Vec<Option<[u64; 2]>> {
         ds.scans
             .iter()
@@ -62,6 +72,16 @@ fn written_and_read_back_bit_for_bit() {
         written.contains(&None),
         "the round trip covers unknown normals"
     );
+    // Every scan is labelled; only the rough harbour's boats move.
+    let moving = |ds: &datasets::Dataset| -> Vec<bool> {
+        ds.scans
+            .iter()
+            .flat_map(|s| s.moving().unwrap().iter().copied())
+            .collect()
+    };
+    assert_eq!(moving(&back), moving(&ds));
+    let n_moving = moving(&ds).iter().filter(|&&m| m).count();
+    assert_eq!(n_moving > 0, scenario.rough.is_some(), "{n_moving}");
 }
 
 fn parse(scans: &str, poses: Option<&str>) -> Result<datasets::Dataset, DatasetError> {
@@ -143,6 +163,62 @@ fn true_normals_are_read_beside_the_returns() {
         None,
         "no normal known in scan 1"
     );
+}
+
+/// The `moving` column, anywhere in the header: 0 and 1 on the returns, empty (or either) on
+/// the no-returns, whose labels are dropped with them; all 0 is a labelled scan, unlike a file
+/// without the column.
+#[test]
+fn moving_labels_are_read_beside_the_returns() {
+    let ds = parse(
+        "moving,scan,timestamp_s,range_m,bearing_rad\n\
+         0,0,0,5,0\n1,0,0,6,1\n,0,0,,\n1,0,0,0,2\n0,1,1,5,0\n0,1,1,6,1\n",
+        None,
+    )
+    .unwrap();
+    assert_eq!((ds.scans[0].len(), ds.scans[0].no_returns()), (2, 2));
+    assert_eq!(ds.scans[0].moving(), Some(&[false, true][..]));
+    assert_eq!(ds.scans[1].moving(), Some(&[false, false][..]));
+    assert_eq!(parse(GOOD, None).unwrap().scans[0].moving(), None);
+    // Written back as read.
+    let dir = tmp("csv_moving");
+    csvdir::write(&dir, &ds).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(dir.join("scans.csv")).unwrap(),
+        "scan,timestamp_s,range_m,bearing_rad,moving\n0,0,5,0,0\n0,0,6,1,1\n0,0,,,\n0,0,,,\n\
+         1,1,5,0,0\n1,1,6,1,0\n"
+    );
+    assert_eq!(csvdir::load(&dir).unwrap().scans, ds.scans);
+}
+
+/// A bad `moving` cell is a parse error naming the file, the line and the field.
+#[test]
+fn bad_moving_labels_name_the_file_line_and_field() {
+    const HEADER: &str = "scan,timestamp_s,range_m,bearing_rad,moving\n";
+    for (rows, expected) in [
+        ("0,0,5,0,0\n0,0,6,1,2\n", "moving must be 0 or 1, not \"2\""),
+        ("0,0,5,0,yes\n", "moving must be 0 or 1, not \"yes\""),
+        ("0,0,5,0,-1\n", "moving must be 0 or 1, not \"-1\""),
+        (
+            "0,0,5,0,\n",
+            "moving is empty on a return (expected 0 or 1)",
+        ),
+        ("0,0,,,\n0,0,5,0,\n", "moving is empty on a return"),
+    ] {
+        let e = parse(&format!("{HEADER}{rows}"), None).unwrap_err();
+        let DatasetError::Parse { path, line, what } = &e else {
+            panic!("{e:?}");
+        };
+        assert_eq!(path, Path::new("scans.csv"));
+        assert_eq!(*line, rows.lines().count() + 1, "{e}");
+        assert!(what.contains(expected), "{e} (expected {expected:?})");
+    }
+    let e = parse(
+        "scan,timestamp_s,range_m,bearing_rad,moving,moving\n0,0,5,0,1,1\n",
+        None,
+    )
+    .unwrap_err();
+    assert!(matches!(e, DatasetError::Parse { line: 2, .. }), "{e}");
 }
 
 #[test]

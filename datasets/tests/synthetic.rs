@@ -1,7 +1,14 @@
-//! The synthetic harbour: determinism, the paper scenario's shape, the noise it draws, and
-//! ICP recovering its exact ground truth.
+//! The synthetic harbour: determinism, the paper scenario's shape, the noise it draws, ICP
+//! recovering its exact ground truth, and the rough harbour's boats: their moving labels and
+//! their JSON files.
 
-use datasets::synthetic::{generate, Scanner, ScannerConfig, Scenario, Segment, Turn};
+use std::path::{Path, PathBuf};
+
+use datasets::synthetic::rough::Boat;
+use datasets::synthetic::{
+    generate, generate_with_boats, read_boats, BoatsError, Scanner, ScannerConfig, Scenario,
+    Segment, Turn, NO_BOATS,
+};
 use datasets::{Dataset, DatasetError};
 use icp_core::variants::builtin;
 use icp_core::Registrar;
@@ -438,4 +445,251 @@ fn rough_harbour_is_seeded_and_rougher() {
         yaw_swing(&a),
         yaw_swing(&paper)
     );
+}
+
+/// The rough harbour, `n_scans` long.
+fn rough(n_scans: usize) -> Scenario {
+    Scenario {
+        n_scans,
+        ..Scenario::rough()
+    }
+}
+
+/// How many returns of `ds` are labelled moving (every scan must be labelled).
+fn moving_returns(ds: &Dataset) -> usize {
+    ds.scans
+        .iter()
+        .map(|s| {
+            let labels = s.moving().expect("synthetic scans are labelled");
+            assert_eq!(labels.len(), s.len());
+            labels.iter().filter(|&&m| m).count()
+        })
+        .sum()
+}
+
+/// A file in the test's scratch directory holding `text`.
+fn scratch_file(name: &str, text: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("boats");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The example file is the built-in traffic, so it cannot drift from it: read, it is
+/// `Boat::harbour()`, and the rough harbour generated from it is the default one, its file
+/// (path and sha256) added to the provenance and the description.
+#[test]
+fn the_example_boats_file_is_the_built_in_traffic() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/boats/harbour.json");
+    let (boats, file) = read_boats(&path).unwrap();
+    assert_eq!(boats, Boat::harbour());
+    assert_eq!(
+        (file.path.as_path(), file.sha256.len()),
+        (path.as_path(), 64)
+    );
+    let default = generate(&rough(6)).unwrap();
+    let from_file = generate_with_boats(&rough(6), path.to_str()).unwrap();
+    assert_eq!(from_file.scans, default.scans);
+    assert!(moving_returns(&default) > 0);
+    assert_eq!(from_file.provenance.files, vec![file.clone()]);
+    assert_eq!(
+        from_file.provenance.description,
+        format!(
+            "{}; boats from {} (sha256 {})",
+            default.provenance.description,
+            path.display(),
+            file.sha256
+        )
+    );
+    assert!(
+        default.provenance.description.contains(
+            "3 moving boats (6 × 2.4 m in lane -4 m, start -20 s, rate 1.5; 8 × 2.8 m in lane \
+             4.5 m, start 120 s, rate -1.2; 5 × 2.2 m in lane -4 m, start 15 s, rate 0.6)"
+        ),
+        "{}",
+        default.provenance.description
+    );
+    // The same through the dataset string.
+    let opened =
+        datasets::open(&format!("synthetic:rough?scans=6&boats={}", path.display())).unwrap();
+    assert_eq!(opened.scans, default.scans);
+}
+
+/// Boats written as JSON read back bit for bit, whatever their values.
+#[test]
+fn boats_round_trip_through_json() {
+    let mut boats = Boat::harbour();
+    boats.push(Boat {
+        length_m: 0.1 + 0.2,
+        beam_m: 1e-300,
+        lane_m: -0.0,
+        start_s: f64::MAX,
+        rate: -std::f64::consts::PI,
+    });
+    let path = scratch_file(
+        "round_trip.json",
+        &serde_json::to_string_pretty(&boats).unwrap(),
+    );
+    let (back, _) = read_boats(&path).unwrap();
+    let bits = |b: &[Boat]| -> Vec<[u64; 5]> {
+        b.iter()
+            .map(|b| [b.length_m, b.beam_m, b.lane_m, b.start_s, b.rate].map(f64::to_bits))
+            .collect()
+    };
+    assert_eq!(bits(&back), bits(&boats));
+}
+
+/// `none` and an empty list both give the rough harbour without boats: no return is labelled
+/// moving, the rest of the harbour is there (water, mixed pixels), the description says so,
+/// and the same seed gives the same data.
+#[test]
+fn a_rough_harbour_without_boats_has_no_moving_returns() {
+    let none = generate_with_boats(&rough(30), Some(NO_BOATS)).unwrap();
+    assert_eq!(moving_returns(&none), 0);
+    assert!(none.provenance.description.contains("no moving boats"));
+    let empty = generate_with_boats(&rough(30), scratch_file("empty.json", "[]").to_str()).unwrap();
+    assert_eq!(empty.scans, none.scans);
+    assert_eq!(
+        generate_with_boats(&rough(30), Some(NO_BOATS))
+            .unwrap()
+            .scans,
+        none.scans,
+        "deterministic"
+    );
+    let with = generate(&rough(30)).unwrap();
+    let share =
+        moving_returns(&with) as f64 / with.scans.iter().map(|s| s.len()).sum::<usize>() as f64;
+    // The first boat waits 4 m to starboard of the start until 13 s: over half the returns.
+    assert!(
+        (0.3..0.8).contains(&share),
+        "{share} of the returns off the boats"
+    );
+    assert_eq!(
+        generate(&rough(30)).unwrap().scans,
+        with.scans,
+        "deterministic"
+    );
+}
+
+/// Every bad boats file or value is a typed error naming the file, and the boat and field
+/// where one is wrong; nothing panics.
+#[test]
+fn bad_boats_are_typed_errors_naming_the_file_and_field() {
+    let boat = r#"{"length_m": 6, "beam_m": 2.4, "lane_m": -4, "start_s": 0, "rate": 1}"#;
+    let run = |name: &str, text: &str| {
+        let path = scratch_file(name, text);
+        (
+            generate_with_boats(&rough(3), path.to_str()).unwrap_err(),
+            path,
+        )
+    };
+    for (name, text, expected) in [
+        ("not_json.json", "boats: 3", "expected value"),
+        (
+            "object.json",
+            boat,
+            "invalid type: map, expected a sequence",
+        ),
+        (
+            "colour.json",
+            &format!("[{}]", boat.replace('}', r#", "colour": 1}"#)),
+            "unknown field `colour`",
+        ),
+        (
+            "missing.json",
+            &format!("[{}]", boat.replace(r#", "rate": 1"#, "")),
+            "missing field `rate`",
+        ),
+        (
+            "nan.json",
+            &format!("[{}]", boat.replace("2.4", "NaN")),
+            "expected value",
+        ),
+        (
+            "huge.json",
+            &format!("[{}]", boat.replace("2.4", "1e999")),
+            "number out of range",
+        ),
+        (
+            "text.json",
+            &format!("[{}]", boat.replace("2.4", r#""wide""#)),
+            "invalid type: string",
+        ),
+    ] {
+        let (e, path) = run(name, text);
+        let DatasetError::Boats(BoatsError::Json { path: p, what, .. }) = &e else {
+            panic!("{name}: {e:?}");
+        };
+        assert_eq!(p, &path);
+        assert!(what.contains(expected), "{name}: {e}");
+        assert!(
+            e.to_string().starts_with(&path.display().to_string()),
+            "{e}"
+        );
+    }
+    for (text, index, field, value) in [
+        (
+            format!("[{boat}, {}]", boat.replace("2.4", "-2.4")),
+            1,
+            "beam_m",
+            -2.4,
+        ),
+        (
+            format!("[{}]", boat.replace(r#""length_m": 6"#, r#""length_m": 0"#)),
+            0,
+            "length_m",
+            0.0,
+        ),
+    ] {
+        let (e, path) = run("invalid.json", &text);
+        let DatasetError::Boats(BoatsError::Invalid {
+            path: p,
+            index: i,
+            field: f,
+            value: v,
+            ..
+        }) = &e
+        else {
+            panic!("{e:?}");
+        };
+        assert_eq!((p, *i, *f, *v), (&path, index, field, value), "{e}");
+    }
+    let (e, path) = run(
+        "invalid.json",
+        &format!("[{}]", boat.replace("2.4", "-2.4")),
+    );
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "{}: boats[0].beam_m = -2.4: must be finite and positive",
+            path.display()
+        )
+    );
+    let missing = Path::new(env!("CARGO_TARGET_TMPDIR")).join("boats/nowhere.json");
+    assert!(matches!(
+        generate_with_boats(&rough(3), missing.to_str()),
+        Err(DatasetError::Boats(BoatsError::Io { path, .. })) if path == missing
+    ));
+    // Boats apply to the rough harbour only.
+    for scenario in [Scenario::paper(), Scenario::marina_like()] {
+        let e = generate_with_boats(&scenario, Some(NO_BOATS)).unwrap_err();
+        assert!(
+            matches!(&e, DatasetError::Boats(BoatsError::NotRough { scenario: s }) if *s == scenario.name),
+            "{e:?}"
+        );
+    }
+    let e = datasets::open("synthetic:paper?scans=3&boats=none").unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        "boats: the \"paper\" scenario has no moving boats to replace (boats apply to the rough \
+         scenario only)"
+    );
+    // A scenario built in code is checked too, naming the field.
+    let mut bad = rough(3);
+    bad.rough.as_mut().unwrap().boats[2].rate = f64::NAN;
+    assert!(matches!(
+        generate(&bad),
+        Err(DatasetError::InvalidParameter { name: "rate", .. })
+    ));
 }

@@ -233,7 +233,7 @@ fn csv_scans(text: &str) -> String {
 fn csv_empty_file() {
     assert_eq!(
         csv_scans(""),
-        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y])"
+        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y][,moving])"
     );
 }
 
@@ -257,7 +257,7 @@ fn csv_infinite_bearing() {
 fn csv_wrong_header() {
     assert_eq!(
         csv_scans("id,t,r,a\n0,0.0,5,0\n"),
-        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y])"
+        "scans.csv:1: missing column \"scan\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y][,moving])"
     );
 }
 
@@ -265,7 +265,7 @@ fn csv_wrong_header() {
 fn csv_one_true_normal_column() {
     assert_eq!(
         csv_scans("scan,timestamp_s,range_m,bearing_rad,true_normal_x\n0,0.0,5,0,1\n"),
-        "scans.csv:1: column \"true_normal_x\" without \"true_normal_y\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y])"
+        "scans.csv:1: column \"true_normal_x\" without \"true_normal_y\" (expected scan,timestamp_s,range_m,bearing_rad[,true_normal_x,true_normal_y][,moving])"
     );
 }
 
@@ -286,6 +286,22 @@ fn csv_zero_true_normal() {
             "scan,timestamp_s,range_m,bearing_rad,true_normal_x,true_normal_y\n0,0.0,5,0,0,-0\n"
         ),
         "scans.csv:2: zero-length true normal: true_normal_x and true_normal_y are both 0"
+    );
+}
+
+#[test]
+fn csv_bad_moving_label() {
+    assert_eq!(
+        csv_scans("scan,timestamp_s,range_m,bearing_rad,moving\n0,0.0,5,0,0\n0,0.0,6,1,true\n"),
+        "scans.csv:3: CSV deserialize error: record 2 (line: 3, byte: 56): moving must be 0 or 1, not \"true\""
+    );
+}
+
+#[test]
+fn csv_empty_moving_label_on_a_return() {
+    assert_eq!(
+        csv_scans("scan,timestamp_s,range_m,bearing_rad,moving\n0,0.0,,,\n0,0.0,6,1,\n"),
+        "scans.csv:3: moving is empty on a return (expected 0 or 1)"
     );
 }
 

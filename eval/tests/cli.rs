@@ -241,36 +241,24 @@ fn reproduce_without_data_runs_the_synthetic_scenario_and_says_how_to_get_the_da
     assert!(!dir.join("out/marina").exists());
 }
 
-#[test]
-fn synth_writes_a_dataset_that_run_reads_back() {
-    let dir = common::scratch_dir("synth_then_run");
-    let data = dir.join("data");
-    let o = icp_eval(&[
-        "synth",
-        "--scenario",
-        "marina-like",
-        "--scans",
-        "12",
-        "--out",
-        data.to_str().unwrap(),
-    ]);
+/// `icp-eval synth` with `args` into `data`, which must succeed, read back.
+fn synth_and_load(data: &Path, args: &[&str]) -> datasets::Dataset {
+    let mut all = vec!["synth", "--out", data.to_str().unwrap()];
+    all.extend(args);
+    let o = icp_eval(&all);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for f in ["scans.csv", "poses.csv", "dataset.json"] {
         assert!(data.join(f).is_file(), "{f}");
     }
-    let back = datasets::csvdir::load(&data).unwrap();
-    let fresh = datasets::synthetic::generate(&datasets::synthetic::Scenario {
-        n_scans: 12,
-        ..datasets::synthetic::Scenario::marina_like()
-    })
-    .unwrap();
-    assert_eq!(back.scans, fresh.scans, "bit for bit");
-    let out = dir.join("out");
-    let spec = format!("csv:{}", data.display());
+    datasets::csvdir::load(data).unwrap()
+}
+
+/// `icp-eval run` of HD_ICP on the dataset `spec` into `out`, which must succeed.
+fn run_hd_icp(spec: &str, out: &Path) {
     let o = icp_eval(&[
         "run",
         "--dataset",
-        &spec,
+        spec,
         "--variants",
         "HD_ICP",
         "--quiet",
@@ -279,7 +267,81 @@ fn synth_writes_a_dataset_that_run_reads_back() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn synth_writes_a_dataset_that_run_reads_back() {
+    let dir = common::scratch_dir("synth_then_run");
+    let data = dir.join("data");
+    let back = synth_and_load(&data, &["--scenario", "marina-like", "--scans", "12"]);
+    let fresh = datasets::synthetic::generate(&datasets::synthetic::Scenario {
+        n_scans: 12,
+        ..datasets::synthetic::Scenario::marina_like()
+    })
+    .unwrap();
+    assert_eq!(back.scans, fresh.scans, "bit for bit");
+    let out = dir.join("out");
+    run_hd_icp(&format!("csv:{}", data.display()), &out);
     assert_eq!(read_pairs(&out).len(), 11);
+}
+
+/// `synth --scenario rough --boats FILE` writes the moving labels and a description naming the
+/// boats and their file; `run` on `synthetic:rough?boats=FILE` lists the file in summary.json;
+/// `--boats` is refused for a scenario without boats.
+#[test]
+fn synth_rough_with_a_boats_file_labels_the_returns_and_names_the_boats() {
+    let dir = common::scratch_dir("synth_boats");
+    let boats = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/boats/harbour.json");
+    let boats = boats.to_str().unwrap();
+    let back = synth_and_load(
+        &dir.join("data"),
+        &["--scenario", "rough", "--scans", "5", "--boats", boats],
+    );
+    let rough = datasets::synthetic::Scenario {
+        n_scans: 5,
+        ..datasets::synthetic::Scenario::rough()
+    };
+    let fresh = datasets::synthetic::generate_with_boats(&rough, Some(boats)).unwrap();
+    assert_eq!(
+        back.scans, fresh.scans,
+        "bit for bit, moving labels included"
+    );
+    assert!(back
+        .scans
+        .iter()
+        .any(|s| s.moving().unwrap().contains(&true)));
+    assert_eq!(back.provenance.description, fresh.provenance.description);
+    assert!(
+        back.provenance
+            .description
+            .contains("3 moving boats (6 × 2.4 m in lane -4 m")
+            && back.provenance.description.contains(&format!(
+                "boats from {boats} (sha256 {})",
+                fresh.provenance.files[0].sha256
+            )),
+        "{}",
+        back.provenance.description
+    );
+    let out = dir.join("out");
+    run_hd_icp(&format!("synthetic:rough?scans=3&boats={boats}"), &out);
+    let summary: RunReport =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary.dataset.files, fresh.provenance.files);
+    let o = icp_eval(&[
+        "synth",
+        "--scenario",
+        "paper",
+        "--boats",
+        "none",
+        "--out",
+        dir.join("paper").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("the \"paper\" scenario has no moving boats to replace"),
+        "{stderr}"
+    );
 }
 
 #[test]

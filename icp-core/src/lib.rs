@@ -84,7 +84,7 @@ pub use icp::Icp;
 pub use motion::{BearingSense, MovementParams, MovementSigmas};
 pub use quality::Conditioning;
 pub use registration::{Prepared, Registrar, Registration};
-pub use scan::Scan;
+pub use scan::{ReadingTruth, Scan};
 pub use sensor::SensorModel;
 pub use surface::{SurfaceParams, Surfaces};
 pub use termination::{StopReason, Termination};

@@ -24,6 +24,9 @@ pub struct Scan {
     /// The true surface normal behind each return (unit, scan frame), aligned with `returns`;
     /// empty when no return's normal is known. Kept apart so that [`Return`] stays small.
     true_normals: Vec<Option<Vector2<f64>>>,
+    /// Whether each return came from a moving object, aligned with `returns`; empty when the
+    /// scan is unlabelled.
+    moving: Vec<bool>,
     timestamp_s: Option<f64>,
     no_returns: usize,
 }
@@ -76,43 +79,43 @@ impl Scan {
         Ok(Self {
             returns,
             true_normals: Vec::new(),
+            moving: Vec::new(),
             timestamp_s: None,
             no_returns,
         })
     }
 
-    /// Like [`Scan::from_polar`], with the true surface normal behind each reading, one per
-    /// reading (unitless, scan frame; `None`: unknown, e.g. a spurious return).
+    /// Like [`Scan::from_polar`], with what a data generator knows about each reading
+    /// ([`ReadingTruth`]).
     ///
-    /// The normals follow the readings: a no-return reading's normal is dropped with it,
-    /// unchecked like its bearing, so [`Scan::true_normals`] stays aligned with
-    /// [`Scan::returns`]. Every other given normal must be finite and non-zero
+    /// The truth follows the readings: a no-return reading's entries are dropped with it,
+    /// unchecked like its bearing, so [`Scan::true_normals`] and [`Scan::moving`] stay aligned
+    /// with [`Scan::returns`]. A slice of another length than the readings is
+    /// [`IcpError::LengthMismatch`]. Every other given normal must be finite and non-zero
     /// ([`IcpError::NonFinite`] or [`IcpError::ZeroLength`], `what: "true normal"`, naming the
     /// reading's index) and is scaled to unit length; one already unit to within 4 ε is kept
     /// bit for bit, so normalising is idempotent and a normal written out and read back is
     /// unchanged. When no return has a known normal the scan carries none
-    /// ([`Scan::true_normals`] is `None`).
-    pub fn from_polar_with_true_normals(
+    /// ([`Scan::true_normals`] is `None`); moving labels, once given, are kept even when all
+    /// are `false` (known static).
+    pub fn from_polar_with_truth(
         ranges_m: &[f64],
         bearings_rad: &[f64],
-        true_normals: &[Option<Vector2<f64>>],
+        truth: ReadingTruth<'_>,
     ) -> Result<Self, IcpError> {
         let mut scan = Self::from_polar(ranges_m, bearings_rad)?;
-        if true_normals.len() != ranges_m.len() {
-            return Err(IcpError::LengthMismatch {
-                what: "true normals",
-                expected: ranges_m.len(),
-                got: true_normals.len(),
-            });
-        }
-        let mut kept = Vec::with_capacity(scan.returns.len());
-        for (index, (&r, n)) in ranges_m.iter().zip(true_normals).enumerate() {
-            if !is_no_return(r) {
-                kept.push(n.map(|n| unit_normal(n, index)).transpose()?);
+        if let Some(normals) = truth.true_normals {
+            let kept = of_returns(ranges_m, normals, "true normals")?
+                .map(|(index, n)| n.map(|n| unit_normal(n, index)).transpose())
+                .collect::<Result<Vec<_>, _>>()?;
+            if kept.iter().any(Option::is_some) {
+                scan.true_normals = kept;
             }
         }
-        if kept.iter().any(Option::is_some) {
-            scan.true_normals = kept;
+        if let Some(moving) = truth.moving {
+            scan.moving = of_returns(ranges_m, moving, "moving labels")?
+                .map(|(_, &m)| m)
+                .collect();
         }
         Ok(scan)
     }
@@ -146,6 +149,7 @@ impl Scan {
         Ok(Self {
             returns,
             true_normals: Vec::new(),
+            moving: Vec::new(),
             timestamp_s: None,
             no_returns,
         })
@@ -170,11 +174,19 @@ impl Scan {
     }
 
     /// The true surface normal behind each return, aligned with [`Scan::returns`]: unit vectors
-    /// (unitless) in the scan frame, as given to [`Scan::from_polar_with_true_normals`].
+    /// (unitless) in the scan frame, as given to [`Scan::from_polar_with_truth`].
     /// `None`: the scan carries no true normals at all; an inner `None`: that return's surface
     /// is unknown (e.g. a spurious return).
     pub fn true_normals(&self) -> Option<&[Option<Vector2<f64>>]> {
         (!self.true_normals.is_empty()).then_some(&self.true_normals[..])
+    }
+
+    /// Whether each return came from a moving object (another boat), aligned with
+    /// [`Scan::returns`], as given to [`Scan::from_polar_with_truth`]: truth for scoring a
+    /// detector or an oracle, never read by a registration. `None`: the scan is unlabelled (or
+    /// has no return).
+    pub fn moving(&self) -> Option<&[bool]> {
+        (!self.moving.is_empty()).then_some(&self.moving[..])
     }
 
     /// Number of valid returns.
@@ -198,9 +210,43 @@ impl Scan {
     }
 }
 
-/// A reading that is a "no return": range NaN or exactly 0.
-fn is_no_return(range_m: f64) -> bool {
+/// What a data generator knows about each reading of a scan beyond its range and bearing, one
+/// entry per reading (no-returns included): truth that scores an estimate or a detector,
+/// carried beside the returns ([`Scan::from_polar_with_truth`]). No registration reads it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ReadingTruth<'a> {
+    /// The true surface normal behind each reading (unitless, scan frame; `None`: unknown,
+    /// e.g. a spurious return).
+    pub true_normals: Option<&'a [Option<Vector2<f64>>]>,
+    /// Whether each reading came from a moving object (another boat's hull).
+    pub moving: Option<&'a [bool]>,
+}
+
+/// A reading that is a "no return": range NaN or exactly 0. Every constructor drops these.
+pub fn is_no_return(range_m: f64) -> bool {
     range_m.is_nan() || range_m == 0.0
+}
+
+/// The entries of `per_reading` (one per reading of `ranges_m`; `what` names them in a length
+/// error) that belong to returns, each with its reading's index.
+fn of_returns<'a, T>(
+    ranges_m: &'a [f64],
+    per_reading: &'a [T],
+    what: &'static str,
+) -> Result<impl Iterator<Item = (usize, &'a T)>, IcpError> {
+    if per_reading.len() != ranges_m.len() {
+        return Err(IcpError::LengthMismatch {
+            what,
+            expected: ranges_m.len(),
+            got: per_reading.len(),
+        });
+    }
+    Ok(ranges_m
+        .iter()
+        .zip(per_reading)
+        .enumerate()
+        .filter(|(_, (&r, _))| !is_no_return(r))
+        .map(|(index, (_, v))| (index, v)))
 }
 
 /// How far from 1 the length of a true normal may be for it to be kept as given (4 ε).
@@ -291,6 +337,21 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    fn with_normals(
+        ranges_m: &[f64],
+        bearings_rad: &[f64],
+        normals: &[Option<Vector2<f64>>],
+    ) -> Result<Scan, IcpError> {
+        Scan::from_polar_with_truth(
+            ranges_m,
+            bearings_rad,
+            ReadingTruth {
+                true_normals: Some(normals),
+                ..ReadingTruth::default()
+            },
+        )
+    }
+
     #[test]
     fn polar_drops_and_counts_no_returns() {
         let scan =
@@ -352,7 +413,7 @@ mod tests {
     #[test]
     fn true_normals_follow_the_kept_returns() {
         let v = |x: f64, y: f64| Some(Vector2::new(x, y));
-        let scan = Scan::from_polar_with_true_normals(
+        let scan = with_normals(
             &[1.0, f64::NAN, 2.0, 0.0, 3.0],
             &[0.0, 0.1, 0.2, 0.3, 0.4],
             // The no-returns' normals are dropped unchecked, like their bearings.
@@ -374,7 +435,7 @@ mod tests {
         );
         // A unit normal is kept bit for bit.
         let unit = Vector2::new(0.1f64.cos(), 0.1f64.sin());
-        let kept = Scan::from_polar_with_true_normals(&[1.0], &[0.0], &[Some(unit)]).unwrap();
+        let kept = with_normals(&[1.0], &[0.0], &[Some(unit)]).unwrap();
         assert_eq!(
             kept.true_normals().unwrap()[0].unwrap().map(f64::to_bits),
             unit.map(f64::to_bits)
@@ -391,9 +452,7 @@ mod tests {
             Ok(Vector2::new(0.0, -1.0))
         );
         // No known normal at all: the scan carries none, as one built without them.
-        let none =
-            Scan::from_polar_with_true_normals(&[1.0, 0.0], &[0.0, 1.0], &[None, v(1.0, 0.0)])
-                .unwrap();
+        let none = with_normals(&[1.0, 0.0], &[0.0, 1.0], &[None, v(1.0, 0.0)]).unwrap();
         assert_eq!(none.true_normals(), None);
         assert_eq!(none, Scan::from_polar(&[1.0, 0.0], &[0.0, 1.0]).unwrap());
         assert_eq!(
@@ -406,7 +465,7 @@ mod tests {
     fn bad_true_normals_are_errors_naming_the_reading() {
         let v = |x: f64, y: f64| Some(Vector2::new(x, y));
         assert_eq!(
-            Scan::from_polar_with_true_normals(&[1.0, 2.0], &[0.0, 1.0], &[None]),
+            with_normals(&[1.0, 2.0], &[0.0, 1.0], &[None]),
             Err(IcpError::LengthMismatch {
                 what: "true normals",
                 expected: 2,
@@ -414,7 +473,7 @@ mod tests {
             })
         );
         assert!(matches!(
-            Scan::from_polar_with_true_normals(&[f64::NAN, 2.0], &[0.0, 1.0], &[None, v(1.0, f64::INFINITY)]),
+            with_normals(&[f64::NAN, 2.0], &[0.0, 1.0], &[None, v(1.0, f64::INFINITY)]),
             Err(IcpError::NonFinite {
                 what: "true normal",
                 index: 1,
@@ -422,11 +481,7 @@ mod tests {
             }) if value == f64::INFINITY
         ));
         assert_eq!(
-            Scan::from_polar_with_true_normals(
-                &[1.0, 0.0, 2.0],
-                &[0.0; 3],
-                &[None, None, v(0.0, -0.0)]
-            ),
+            with_normals(&[1.0, 0.0, 2.0], &[0.0; 3], &[None, None, v(0.0, -0.0)]),
             Err(IcpError::ZeroLength {
                 what: "true normal",
                 index: 2
@@ -440,6 +495,47 @@ mod tests {
             .to_string(),
             "zero-length true normal at index 2"
         );
+    }
+
+    #[test]
+    fn moving_labels_follow_the_kept_returns_and_stay_when_all_false() {
+        let ranges = [1.0, f64::NAN, 2.0, 0.0, 3.0];
+        let labelled = |moving: &[bool]| {
+            Scan::from_polar_with_truth(
+                &ranges,
+                &[0.0; 5],
+                ReadingTruth {
+                    moving: Some(moving),
+                    ..ReadingTruth::default()
+                },
+            )
+        };
+        let scan = labelled(&[false, true, true, true, false]).unwrap();
+        assert_eq!(scan.moving(), Some(&[false, true, false][..]));
+        assert_eq!(scan.true_normals(), None);
+        let still = labelled(&[false; 5]).unwrap();
+        assert_eq!(still.moving(), Some(&[false; 3][..]));
+        assert_ne!(still, Scan::from_polar(&ranges, &[0.0; 5]).unwrap());
+        assert_eq!(Scan::from_polar(&ranges, &[0.0; 5]).unwrap().moving(), None);
+        assert_eq!(
+            labelled(&[false; 4]),
+            Err(IcpError::LengthMismatch {
+                what: "moving labels",
+                expected: 5,
+                got: 4
+            })
+        );
+        // A scan without returns has no labels to carry.
+        let empty = Scan::from_polar_with_truth(
+            &[f64::NAN],
+            &[0.0],
+            ReadingTruth {
+                moving: Some(&[true]),
+                ..ReadingTruth::default()
+            },
+        )
+        .unwrap();
+        assert_eq!(empty.moving(), None);
     }
 
     /// Every finite `f64`, of either sign.

@@ -9,13 +9,15 @@
 //! per beam against these segments and adds the sensor model's noise (eq. 8): the beam leaves
 //! at its nominal bearing plus `N(0, σ_α)` and the range gets `N(0, σ_r(r))`. Each return
 //! keeps the true normal of the surface it came from ([`Scan::true_normals`]); spurious
-//! returns have none.
+//! returns have none. Every return is labelled moving or not ([`Scan::moving`]): only the rough
+//! harbour's boats ([`rough::Boat`]) move. Neither is read by a registration: they are truth
+//! for scoring.
 //!
 //! Frames: the world is east-north (x east, y north); the scanner's `+x` is the bow and its
 //! bearings grow counter-clockwise; the reference heading is navigational (clockwise from
 //! north), so yaw `ψ = 90° − HDG`.
 
-use icp_core::{BearingSense, Scan, SensorModel};
+use icp_core::{BearingSense, ReadingTruth, Scan, SensorModel};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -26,10 +28,12 @@ use crate::DatasetError;
 pub mod rough;
 mod scanner;
 mod track;
+mod traffic;
 mod world;
 
 pub use rough::Rough;
 pub use scanner::{Revolution, Scanner};
+pub use traffic::{generate_with_boats, read_boats, BoatsError, NO_BOATS};
 pub use world::{Segment, Surface};
 
 use track::Track;
@@ -361,14 +365,17 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
                 track.pose_at(t_k),
             ),
         };
-        let scan =
-            Scan::from_polar_with_true_normals(&rev.ranges_m, &rev.bearings_rad, &rev.true_normals)
-                .and_then(|s| s.with_timestamp(t_k))
-                .map_err(|source| DatasetError::Scan {
-                    path: "<synthetic>".into(),
-                    scan: k,
-                    source,
-                })?;
+        let truth = ReadingTruth {
+            true_normals: Some(&rev.true_normals),
+            moving: Some(&rev.moving),
+        };
+        let scan = Scan::from_polar_with_truth(&rev.ranges_m, &rev.bearings_rad, truth)
+            .and_then(|s| s.with_timestamp(t_k))
+            .map_err(|source| DatasetError::Scan {
+                path: "<synthetic>".into(),
+                scan: k,
+                source,
+            })?;
         scans.push(scan);
         let yaw = pose_k.rotation.angle();
         reference.push(ReferencePose {
@@ -378,6 +385,13 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
             scan_yaw_rad: Some(yaw),
         });
     }
+    let rough_part = scenario.rough.as_ref().map_or_else(String::new, |r| {
+        format!(
+            "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, {}; the dataset's \
+             sensor model is the nominal one",
+            rough::Boat::describe(&r.boats)
+        )
+    });
     Ok(Dataset {
         provenance: Provenance {
             name: format!("synthetic:{}", scenario.name),
@@ -388,12 +402,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
                 scenario.dt_s,
                 scenario.speed_mps,
                 scenario.seed,
-                if scenario.rough.is_some() {
-                    "; rough: waves, tilt, grazing noise, mixed pixels, heavy tails, moving boats \
-                     (the dataset's sensor model is the nominal one)"
-                } else {
-                    ""
-                }
+                rough_part,
             ),
             files: Vec::new(),
         },

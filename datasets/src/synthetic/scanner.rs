@@ -21,6 +21,9 @@ pub struct Revolution {
     /// the segment hit, facing the beam's origin. `None` for a spurious return and for a beam
     /// without return.
     pub true_normals: Vec<Option<Vector2<f64>>>,
+    /// Whether each beam's return came from a moving hull ([`super::rough::Boat`]): `false`
+    /// for every beam of a harbour without traffic.
+    pub moving: Vec<bool>,
 }
 
 /// Casts the scanner's beams against a world.
@@ -114,6 +117,7 @@ impl<'a> Scanner<'a> {
             normals.push(normal.filter(|_| returned));
         }
         Revolution {
+            moving: vec![false; ranges.len()],
             ranges_m: ranges,
             bearings_rad: bearings,
             true_normals: normals,

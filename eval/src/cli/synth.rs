@@ -38,8 +38,12 @@ pub(crate) struct SynthArgs {
     /// Take each beam at its own time within the revolution.
     #[arg(long)]
     pub(crate) motion_distortion: bool,
-    /// Output directory (scans.csv with each return's true surface normal, poses.csv,
-    /// dataset.json).
+    /// The rough scenario's moving boats: a JSON file listing them (see
+    /// configs/boats/harbour.json, the built-in three, the default) or `none`.
+    #[arg(long, value_name = "FILE|none")]
+    pub(crate) boats: Option<String>,
+    /// Output directory (scans.csv with each return's true surface normal and moving label,
+    /// poses.csv, dataset.json).
     #[arg(long)]
     pub(crate) out: PathBuf,
 }
@@ -71,7 +75,7 @@ pub(crate) fn synth(args: SynthArgs) -> Result<ExitCode> {
     if let Some(f) = args.gross_error_fraction {
         scenario.scanner.gross_error_fraction = f;
     }
-    let ds = synthetic::generate(&scenario)?;
+    let ds = synthetic::generate_with_boats(&scenario, args.boats.as_deref())?;
     datasets::csvdir::write(&args.out, &ds)
         .with_context(|| format!("writing {}", args.out.display()))?;
     println!("{} scans written to {}", ds.scans.len(), args.out.display());

@@ -171,20 +171,7 @@ impl Rough {
                 "every wave needs a finite amplitude and a positive period",
             ));
         }
-        let boat_ok = |b: &Boat| {
-            positive(b.length_m)
-                && positive(b.beam_m)
-                && b.lane_m.is_finite()
-                && b.start_s.is_finite()
-                && b.rate.is_finite()
-        };
-        self.boats.iter().find(|b| !boat_ok(b)).map(|b| {
-            (
-                "boats",
-                b.length_m,
-                "every boat needs a positive size and finite lane, start and rate",
-            )
-        })
+        self.boats.iter().find_map(Boat::invalid)
     }
 
     fn top_m(&self, surface: Surface) -> f64 {
@@ -222,11 +209,12 @@ pub struct RoughScanner<'a> {
 }
 
 /// What one beam met before the noise: its range, true normal (scan frame) and the surface
-/// (none for the water).
+/// (none for the water), and whether that surface is a moving hull.
 struct Echo {
     range_m: f64,
     normal: Option<Vector2<f64>>,
     cos_incidence: f64,
+    moving: bool,
 }
 
 impl<'a> RoughScanner<'a> {
@@ -290,6 +278,7 @@ impl<'a> RoughScanner<'a> {
         let mut true_ranges = Vec::with_capacity(beams);
         let mut bearings = Vec::with_capacity(beams);
         let mut normals = Vec::with_capacity(beams);
+        let mut on_hull = Vec::with_capacity(beams);
         for (j, (pose, &t)) in poses.iter().zip(&times).enumerate() {
             let bearing = phase + j as f64 * beam_step;
             let (n_alpha, n_range) = (unit.sample(noise_rng), unit.sample(noise_rng));
@@ -300,9 +289,10 @@ impl<'a> RoughScanner<'a> {
             let dir = pose.rotation * Vector2::new(beam.azimuth_rad.cos(), beam.azimuth_rad.sin());
             let origin = Point2::from(pose.translation.vector);
             let echo = self.echo(motion, t, &sectors, &near, &origin, &dir, &beam, event_rng);
-            let (mut r, mut r_true, mut normal) = (f64::NAN, f64::NAN, None);
+            let (mut r, mut r_true, mut normal, mut hull) = (f64::NAN, f64::NAN, None, false);
             if let Some(e) = echo.filter(|e| e.range_m <= sc.max_range_m) {
                 if !event_rng.random_bool(sc.dropout_prob) {
+                    hull = e.moving;
                     let sigma = sc
                         .sensor
                         .sigma_r_m(e.range_m)
@@ -322,8 +312,9 @@ impl<'a> RoughScanner<'a> {
             }
             if event_rng.random_bool(sc.gross_error_fraction) {
                 r = event_rng.random_range(1.0..0.5 * sc.max_range_m);
-                (r_true, normal) = (f64::NAN, None);
+                (r_true, normal, hull) = (f64::NAN, None, false);
             }
+            on_hull.push(hull);
             ranges.push(r);
             true_ranges.push(r_true);
             bearings.push(bearing);
@@ -341,10 +332,16 @@ impl<'a> RoughScanner<'a> {
                 normals[j] = None;
             }
         }
+        // A mixed pixel straddling a hull's edge moves with it: it is labelled moving when
+        // either surface it mixes is a hull (beam `j` mixes its own with beam `j + 1`'s).
+        let moving = (0..beams)
+            .map(|j| !ranges[j].is_nan() && (on_hull[j] || (mixed[j] && on_hull[j + 1])))
+            .collect();
         Revolution {
             ranges_m: ranges,
             bearings_rad: bearings,
             true_normals: normals,
+            moving,
         }
     }
 
@@ -363,28 +360,31 @@ impl<'a> RoughScanner<'a> {
         event_rng: &mut ChaCha8Rng,
     ) -> Option<Echo> {
         let rough = self.rough;
-        let mut hit: Option<(f64, Segment, f64)> = sectors.cast_index(origin, dir).map(|(d, k)| {
-            let i = near[k];
-            (d, self.world[i], rough.top_m(self.surfaces[i]))
-        });
+        // The nearest hit: distance, segment, its top above the water, and whether it moves.
+        let mut hit: Option<(f64, Segment, f64, bool)> =
+            sectors.cast_index(origin, dir).map(|(d, k)| {
+                let i = near[k];
+                (d, self.world[i], rough.top_m(self.surfaces[i]), false)
+            });
         for boat in &rough.boats {
             let pose = boat.pose(t_s, motion.duration_s, motion.track);
             for side in boat.sides(&pose) {
                 if let Some(d) = side.hit(origin, dir) {
-                    if hit.is_none_or(|(best, _, _)| d < best) {
-                        hit = Some((d, side, rough.hull_top_m));
+                    if hit.is_none_or(|(best, ..)| d < best) {
+                        hit = Some((d, side, rough.hull_top_m, true));
                     }
                 }
             }
         }
-        match beam.meets(rough.scanner_height_m, hit.map(|(d, _, top)| (d, top))) {
+        match beam.meets(rough.scanner_height_m, hit.map(|(d, _, top, _)| (d, top))) {
             Meets::Surface(range_m) => {
-                let (_, segment, _) = hit.expect("a surface was met");
+                let (_, segment, _, moving) = hit.expect("a surface was met");
                 let normal = segment.normal_facing(dir)?;
                 Some(Echo {
                     range_m,
                     normal: Some(normal),
                     cos_incidence: normal.dot(dir).abs() * beam.cos_elevation,
+                    moving,
                 })
             }
             Meets::Water(range_m) => {
@@ -394,6 +394,7 @@ impl<'a> RoughScanner<'a> {
                         range_m,
                         normal: None,
                         cos_incidence: 1.0,
+                        moving: false,
                     })
             }
             Meets::Nothing => None,
@@ -408,7 +409,7 @@ mod tests {
     use rand::SeedableRng;
 
     /// A rough harbour with every source of its own off.
-    fn calm() -> Rough {
+    pub(super) fn calm() -> Rough {
         Rough {
             sea: SeaState {
                 surge_m: vec![],
@@ -434,6 +435,18 @@ mod tests {
         }
     }
 
+    /// A closed 40 m × 16 m room of quay walls about the origin, and what its walls are.
+    pub(super) fn room() -> (Vec<Segment>, Vec<Surface>) {
+        let room = [(-20.0, -8.0), (20.0, -8.0), (20.0, 8.0), (-20.0, 8.0)];
+        let world = (0..4)
+            .map(|i| Segment {
+                a: Point2::new(room[i].0, room[i].1),
+                b: Point2::new(room[(i + 1) % 4].0, room[(i + 1) % 4].1),
+            })
+            .collect();
+        (world, vec![Surface::Quay; 4])
+    }
+
     /// With its own sources off, the rough scanner is the paper's scanner, bit for bit in the
     /// beams' draws and to rounding in the ranges (its azimuth goes through the tilt's
     /// trigonometry), with and without motion distortion; distortion lengthens or shortens the
@@ -441,14 +454,7 @@ mod tests {
     /// first beam alone.
     #[test]
     fn calm_it_is_the_papers_scanner_and_motion_distortion_acts() {
-        let room = [(-20.0, -8.0), (20.0, -8.0), (20.0, 8.0), (-20.0, 8.0)];
-        let world: Vec<Segment> = (0..4)
-            .map(|i| Segment {
-                a: Point2::new(room[i].0, room[i].1),
-                b: Point2::new(room[(i + 1) % 4].0, room[(i + 1) % 4].1),
-            })
-            .collect();
-        let surfaces = vec![Surface::Quay; 4];
+        let (world, surfaces) = room();
         let track = |t: f64| Isometry2::new(Vector2::new(-5.0 + 1.2 * t, 0.0), 0.3 * t);
         let rough = calm();
         let sea = rough.sea.with_phases(&mut ChaCha8Rng::seed_from_u64(0));
