@@ -115,6 +115,7 @@ pub static KINDS: &[Kind] = &[
             },
             OptionDoc {
                 name: "boats",
+                flag: None,
                 help: "rough only: the moving boats, a JSON file of them or none (default: the \
                        built-in three, configs/boats/harbour.json)",
             },
