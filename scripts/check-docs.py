@@ -13,7 +13,7 @@ What runs:
   `path:` becomes a link to this clone.
 ```rust blocks are not run here: icp-core compiles and runs them as doctests.
 
-Every relative link of these pages (and of eval/ and datasets/'s READMEs) must name a file that
+Every docs/ page that `icp-eval COMMAND --help` names, and every relative link of these pages (and of eval/ and datasets/'s READMEs) must name a file that
 exists and, for a Markdown file, a heading it has.
 
 A block is left out only when the line before it is `<!-- docs-check: skip REASON -->`, and every
@@ -89,6 +89,22 @@ def broken_links(path):
             out.append(f"{path.relative_to(REPO)}: link to a missing file: {url}")
         elif anchor and dest.suffix == ".md" and anchor not in anchors(dest):
             out.append(f"{path.relative_to(REPO)}: link to a missing heading: {url}")
+    return out
+
+
+HELP_COMMANDS = ["run", "compare", "basin", "gate", "baseline", "synth", "merge"]
+
+
+def broken_help_links(env):
+    """docs/ pages that `icp-eval COMMAND --help` names and that do not exist."""
+    out = []
+    for command in HELP_COMMANDS:
+        text = subprocess.run(
+            ["icp-eval", command, "--help"], env=env, capture_output=True, text=True, check=True
+        ).stdout
+        for page in sorted(set(re.findall(r"docs/[\w./-]+\.(?:md|yml)", text))):
+            if not (REPO / page).exists():
+                out.append(f"icp-eval {command} --help names {page}, which does not exist")
     return out
 
 
@@ -196,6 +212,11 @@ def main():
     scratch = pathlib.Path(tempfile.mkdtemp(prefix="docs-check-"))
     runner = Runner(scratch)
     ok = runner.file(readme, REPO) is not None
+    # The README installed icp-eval: its --help may point to docs/ pages, which must exist.
+    broken = broken_help_links(runner.env) if ok else []
+    if broken:
+        print("docs-check: " + "\n".join(broken), file=sys.stderr)
+        ok = False
     # The docs' readers have the README's venv active.
     venv = REPO / ".venv"
     runner.env["PATH"] = f"{venv / 'bin'}:{runner.env['PATH']}"

@@ -43,7 +43,8 @@ pub(crate) struct ShardArgs {
     /// Run only part K of N (0 ≤ K < N) of the job list and write it as part-K-of-N.cbor
     /// into --out, for `icp-eval merge`. Without it, a Slurm array task
     /// (SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN of SLURM_ARRAY_TASK_COUNT) or a Kubernetes
-    /// indexed Job (JOB_COMPLETION_INDEX, with --shards) is sharded likewise.
+    /// indexed Job (JOB_COMPLETION_INDEX, with --shards) is sharded likewise. See
+    /// docs/sharding.md.
     #[arg(long)]
     pub(crate) shard: Option<eval::shard::Shard>,
     /// Number of shards of a Kubernetes indexed Job (its completions); checked against the

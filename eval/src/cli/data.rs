@@ -11,7 +11,7 @@ use icp_core::sensor::SensorOverrides;
 /// `--dataset`'s one-line help: the registered kinds.
 pub(crate) fn dataset_help_short() -> String {
     format!(
-        "{} (options: KIND:TARGET?KEY=VALUE&...; see --help)",
+        "{} (options: KIND:TARGET?KEY=VALUE&...; see --help and docs/formats.md)",
         datasets::source::syntaxes()
     )
 }

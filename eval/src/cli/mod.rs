@@ -105,7 +105,7 @@ pub(crate) fn cli_command() -> clap::Command {
     );
     let init = format!(
         "Where each registration starts: {}. A comma-separated chain tries the next mode while \
-         a registration is flagged (e.g. constant-velocity,identity)",
+         a registration is flagged (e.g. constant-velocity,identity). See docs/starts-and-flags.md",
         MODES
             .iter()
             .map(|(_, name, help)| format!("{name}: {help}"))
@@ -116,7 +116,12 @@ pub(crate) fn cli_command() -> clap::Command {
         c.mut_arg("variants", |a| a.help(variants.clone()))
             .mut_arg("matcher", |a| a.help(matchers.clone()))
             .mut_arg("init", |a| a.help(init.clone()))
-            .mut_arg("covariance", |a| a.help(CovarianceMode::help()))
+            .mut_arg("covariance", |a| {
+                a.help(format!(
+                    "{}. See docs/covariances.md",
+                    CovarianceMode::help()
+                ))
+            })
     };
     <Cli as clap::CommandFactory>::command()
         .mut_subcommand("run", patch)

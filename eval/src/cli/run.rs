@@ -29,7 +29,7 @@ pub(crate) struct RunArgs {
     /// Reference time offset to apply: N scans (the reference of pair k + N is compared with
     /// estimate k), or `auto`: the estimated one (the lag whose correlation beats lag 0 by
     /// 0.05 or more, else 0). The default, 0, never applies one, whatever table.md says was
-    /// estimated. Refused on a dataset without a reference.
+    /// estimated. Refused on a dataset without a reference. See docs/reference.md.
     #[arg(long)]
     pub(crate) reference_offset: Option<OffsetChoice>,
     /// Test the reference steps for plausibility (`on`, the default, for measured references
@@ -41,13 +41,14 @@ pub(crate) struct RunArgs {
     #[arg(long, default_value = "identity")]
     pub(crate) init: InitChain,
     /// Check every result against a global search of its pair (correlative scan matching):
-    /// a result far from a clearly better pose is flagged suspect.
+    /// a result far from a clearly better pose is flagged suspect. See
+    /// docs/starts-and-flags.md.
     #[arg(long, value_enum, default_value_t = GlobalChecks::On)]
     pub(crate) global_check: GlobalChecks,
     /// Correspondence gate of registrations started close to the motion (at the global
     /// search's pose or the reference), for variants whose metric measures along a surface
     /// normal and has no gate of its own: auto (2 cells of the search, 0.2 m by default), off,
-    /// or a distance in metres.
+    /// or a distance in metres. See docs/starts-and-flags.md.
     #[arg(long, default_value = "auto")]
     pub(crate) start_gate: StartGate,
     /// Half-width of the global search's translation window around the identity, m.
@@ -65,12 +66,14 @@ pub(crate) struct RunArgs {
     /// Another estimator's results, evaluated after the variants like one more variant:
     /// NAME=FILE, the file TUM poses per scan (`timestamp x y z qx qy qz qw`, matched to the
     /// scans' times within 1 ms) or a CSV of per-pair motions
-    /// (`source,reference,tx_m,ty_m,theta_deg`, t_ref_src as in pairs.csv). Repeatable.
+    /// (`source,reference,tx_m,ty_m,theta_deg`, t_ref_src as in pairs.csv). Repeatable. See
+    /// docs/estimates.md.
     #[arg(long)]
     pub(crate) estimates: Vec<EstimatesSpec>,
     /// Also register every scan k to scan k+ℓ for 2 ≤ ℓ ≤ LAGS, and flag a consecutive
     /// registration that disagrees with every trusted loop through its neighbours (one whose
-    /// registrations are all ok; `cycles.csv`; 1: consecutive pairs only).
+    /// registrations are all ok; `cycles.csv`; 1: consecutive pairs only). See
+    /// docs/reference.md.
     #[arg(long, default_value_t = 1)]
     pub(crate) lags: usize,
     /// Output directory.
