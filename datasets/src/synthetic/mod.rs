@@ -17,7 +17,7 @@
 //! bearings grow counter-clockwise; the reference heading is navigational (clockwise from
 //! north), so yaw `ψ = 90° − HDG`.
 
-use icp_core::{BearingSense, ReadingTruth, Scan, SensorModel};
+use icp_core::{BearingSense, SensorModel};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -90,6 +90,50 @@ impl ScannerConfig {
     /// Time of one revolution, seconds.
     pub fn rotation_period_s(&self) -> f64 {
         1.0 / self.rotation_hz
+    }
+
+    /// Refuses a configuration out of range (naming the field) or an unusable sensor model.
+    pub(crate) fn validate(&self) -> Result<(), DatasetError> {
+        let checks: [(&'static str, f64, bool); 5] = [
+            (
+                "max_range_m",
+                self.max_range_m,
+                self.max_range_m.is_finite() && self.max_range_m > 1.0,
+            ),
+            (
+                "sample_rate_hz",
+                self.sample_rate_hz,
+                self.sample_rate_hz.is_finite()
+                    && self.beams_per_rev() >= 3
+                    && self.beams_per_rev() <= 1_000_000,
+            ),
+            (
+                "dropout_prob",
+                self.dropout_prob,
+                (0.0..=1.0).contains(&self.dropout_prob),
+            ),
+            (
+                "gross_error_fraction",
+                self.gross_error_fraction,
+                (0.0..=1.0).contains(&self.gross_error_fraction),
+            ),
+            (
+                "rotation_hz",
+                self.rotation_hz,
+                self.rotation_hz.is_finite() && self.rotation_hz > 0.0,
+            ),
+        ];
+        if let Some((name, value, _)) = checks.into_iter().find(|c| !c.2) {
+            return Err(DatasetError::InvalidParameter {
+                name,
+                value,
+                reason: "out of range for a synthetic scenario",
+            });
+        }
+        self.sensor.validate().map_err(|e| DatasetError::BadValue {
+            path: "<scenario>".into(),
+            what: e.to_string(),
+        })
     }
 }
 
@@ -222,8 +266,7 @@ impl Scenario {
     }
 
     fn validate(&self) -> Result<(), DatasetError> {
-        let s = &self.scanner;
-        let checks: [(&'static str, f64, bool); 8] = [
+        let checks: [(&'static str, f64, bool); 3] = [
             ("n_scans", self.n_scans as f64, self.n_scans >= 2),
             ("dt_s", self.dt_s, self.dt_s.is_finite() && self.dt_s > 0.0),
             (
@@ -231,43 +274,15 @@ impl Scenario {
                 self.speed_mps,
                 self.speed_mps.is_finite() && self.speed_mps >= 0.0,
             ),
-            (
-                "max_range_m",
-                s.max_range_m,
-                s.max_range_m.is_finite() && s.max_range_m > 1.0,
-            ),
-            (
-                "sample_rate_hz",
-                s.sample_rate_hz,
-                s.sample_rate_hz.is_finite()
-                    && s.beams_per_rev() >= 3
-                    && s.beams_per_rev() <= 1_000_000,
-            ),
-            (
-                "dropout_prob",
-                s.dropout_prob,
-                (0.0..=1.0).contains(&s.dropout_prob),
-            ),
-            (
-                "gross_error_fraction",
-                s.gross_error_fraction,
-                (0.0..=1.0).contains(&s.gross_error_fraction),
-            ),
-            (
-                "rotation_hz",
-                s.rotation_hz,
-                s.rotation_hz.is_finite() && s.rotation_hz > 0.0,
-            ),
         ];
-        for (name, value, ok) in checks {
-            if !ok {
-                return Err(DatasetError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "out of range for a synthetic scenario",
-                });
-            }
+        if let Some((name, value, _)) = checks.into_iter().find(|c| !c.2) {
+            return Err(DatasetError::InvalidParameter {
+                name,
+                value,
+                reason: "out of range for a synthetic scenario",
+            });
         }
+        self.scanner.validate()?;
         let finite = [
             self.speed_wobble_mps,
             self.initial_heading_deg,
@@ -289,17 +304,14 @@ impl Scenario {
                 reason: "a turn must end after it starts",
             });
         }
-        if let Some((name, value, reason)) = self.rough.as_ref().and_then(Rough::invalid) {
-            return Err(DatasetError::InvalidParameter {
+        match self.rough.as_ref().and_then(Rough::invalid) {
+            Some((name, value, reason)) => Err(DatasetError::InvalidParameter {
                 name,
                 value,
                 reason,
-            });
+            }),
+            None => Ok(()),
         }
-        s.sensor.validate().map_err(|e| DatasetError::BadValue {
-            path: "<scenario>".into(),
-            what: e.to_string(),
-        })
     }
 
     /// Navigational heading at time `t_s`, degrees (unwrapped).
@@ -322,6 +334,9 @@ impl Scenario {
     }
 }
 
+/// Mixed into a scenario's seed to seed its noise, apart from its events.
+const NOISE_SEED_MIX: u64 = 0x005e_ed0f_5e45;
+
 /// The ChaCha8 stream of the rough harbour's wave phases.
 const SEA_STREAM: u64 = 22;
 
@@ -332,7 +347,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + sc.rotation_period_s();
     let track = Track::new(scenario, duration_s);
     let mut event_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
-    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x005e_ed0f_5e45);
+    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ NOISE_SEED_MIX);
     let (world, surfaces) = build_world(&track, duration_s, &mut event_rng);
     let scanner = Scanner::new(sc, &world);
     let pose_at = |t: f64| track.pose_at(t);
@@ -365,18 +380,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
                 track.pose_at(t_k),
             ),
         };
-        let truth = ReadingTruth {
-            true_normals: Some(&rev.true_normals),
-            moving: Some(&rev.moving),
-        };
-        let scan = Scan::from_polar_with_truth(&rev.ranges_m, &rev.bearings_rad, truth)
-            .and_then(|s| s.with_timestamp(t_k))
-            .map_err(|source| DatasetError::Scan {
-                path: "<synthetic>".into(),
-                scan: k,
-                source,
-            })?;
-        scans.push(scan);
+        scans.push(rev.scan(k, t_k)?);
         let yaw = pose_k.rotation.angle();
         reference.push(ReferencePose {
             x_m: pose_k.translation.x,
