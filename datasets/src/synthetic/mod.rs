@@ -25,15 +25,19 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::{Dataset, Pose2, Provenance, ReferenceKind, ReferencePose};
 use crate::DatasetError;
 
+pub mod corridor;
 pub mod rough;
 mod scanner;
 mod track;
 mod traffic;
 mod world;
 
+pub use corridor::{generate_corridor, Corridor};
 pub use rough::Rough;
 pub use scanner::{Revolution, Scanner};
-pub use traffic::{generate_with_boats, read_boats, BoatsError, NO_BOATS};
+pub use traffic::{
+    generate_corridor_without_boats, generate_with_boats, read_boats, BoatsError, NO_BOATS,
+};
 pub use world::{Segment, Surface};
 
 use track::Track;
@@ -252,8 +256,8 @@ impl Scenario {
         }
     }
 
-    /// The scenarios' names, for messages.
-    pub const NAMES: &'static str = "paper, marina-like or rough";
+    /// The synthetic scenarios' names, for messages: the harbour's and [`Corridor::NAME`].
+    pub const NAMES: &'static str = "paper, marina-like, rough or corridor";
 
     /// A scenario by name: `paper`, `marina-like` or `rough`.
     pub fn by_name(name: &str) -> Option<Self> {

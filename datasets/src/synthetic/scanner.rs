@@ -24,7 +24,7 @@ pub struct Revolution {
     /// without return.
     pub true_normals: Vec<Option<Vector2<f64>>>,
     /// Whether each beam's return came from a moving body (a hull, [`super::rough::Boat`]; a
-    /// walking person): `false` for every beam of a still world.
+    /// walking person, [`super::corridor`]): `false` for every beam of a still world.
     pub moving: Vec<bool>,
 }
 
@@ -60,7 +60,7 @@ impl<'a> Scanner<'a> {
     }
 
     /// A scanner in `world` whose segments from `moving_from` on belong to moving bodies
-    /// : every return off one of them is labelled moving.
+    /// (people, [`super::corridor`]): every return off one of them is labelled moving.
     pub fn with_moving_from(
         config: &'a ScannerConfig,
         world: &'a [Segment],
