@@ -17,7 +17,7 @@
 //! bearings grow counter-clockwise; the reference heading is navigational (clockwise from
 //! north), so yaw `ψ = 90° − HDG`.
 
-use icp_core::{BearingSense, SensorModel};
+use icp_core::{BearingSense, Scan, SensorModel};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -98,7 +98,7 @@ impl ScannerConfig {
 
     /// Refuses a configuration out of range (naming the field) or an unusable sensor model.
     pub(crate) fn validate(&self) -> Result<(), DatasetError> {
-        let checks: [(&'static str, f64, bool); 5] = [
+        check_ranges([
             (
                 "max_range_m",
                 self.max_range_m,
@@ -126,14 +126,7 @@ impl ScannerConfig {
                 self.rotation_hz,
                 self.rotation_hz.is_finite() && self.rotation_hz > 0.0,
             ),
-        ];
-        if let Some((name, value, _)) = checks.into_iter().find(|c| !c.2) {
-            return Err(DatasetError::InvalidParameter {
-                name,
-                value,
-                reason: "out of range for a synthetic scenario",
-            });
-        }
+        ])?;
         self.sensor.validate().map_err(|e| DatasetError::BadValue {
             path: "<scenario>".into(),
             what: e.to_string(),
@@ -270,22 +263,12 @@ impl Scenario {
     }
 
     fn validate(&self) -> Result<(), DatasetError> {
-        let checks: [(&'static str, f64, bool); 3] = [
-            ("n_scans", self.n_scans as f64, self.n_scans >= 2),
-            ("dt_s", self.dt_s, self.dt_s.is_finite() && self.dt_s > 0.0),
-            (
-                "speed_mps",
-                self.speed_mps,
-                self.speed_mps.is_finite() && self.speed_mps >= 0.0,
-            ),
-        ];
-        if let Some((name, value, _)) = checks.into_iter().find(|c| !c.2) {
-            return Err(DatasetError::InvalidParameter {
-                name,
-                value,
-                reason: "out of range for a synthetic scenario",
-            });
-        }
+        check_ranges(run_checks(self.n_scans, self.dt_s))?;
+        check_ranges([(
+            "speed_mps",
+            self.speed_mps,
+            self.speed_mps.is_finite() && self.speed_mps >= 0.0,
+        )])?;
         self.scanner.validate()?;
         let finite = [
             self.speed_wobble_mps,
@@ -336,6 +319,29 @@ impl Scenario {
     fn speed_mps(&self, t_s: f64) -> f64 {
         self.speed_mps + self.speed_wobble_mps * (std::f64::consts::TAU * t_s / 30.0).sin()
     }
+}
+
+/// The first of `checks` (a parameter's name, its value, whether it is in range) out of
+/// range, as the error naming it.
+fn check_ranges<const N: usize>(
+    checks: [(&'static str, f64, bool); N],
+) -> Result<(), DatasetError> {
+    match checks.into_iter().find(|c| !c.2) {
+        Some((name, value, _)) => Err(DatasetError::InvalidParameter {
+            name,
+            value,
+            reason: "out of range for a synthetic scenario",
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The checks of every synthetic run: at least two scans, a finite positive spacing.
+fn run_checks(n_scans: usize, dt_s: f64) -> [(&'static str, f64, bool); 2] {
+    [
+        ("n_scans", n_scans as f64, n_scans >= 2),
+        ("dt_s", dt_s, dt_s.is_finite() && dt_s > 0.0),
+    ]
 }
 
 /// Mixed into a scenario's seed to seed its noise, apart from its events.
@@ -400,18 +406,45 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
             rough::Boat::describe(&r.boats)
         )
     });
-    Ok(Dataset {
+    let description = format!(
+        "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}{}",
+        scenario.name,
+        scenario.n_scans,
+        scenario.dt_s,
+        scenario.speed_mps,
+        scenario.seed,
+        rough_part,
+    );
+    Ok(ground_truth_dataset(
+        (&scenario.name, description),
+        (scans, reference),
+        BearingSense::Clockwise,
+        scenario.dt_s,
+        // Without distortion every beam is cast from the revolution's start pose.
+        if sc.motion_distortion {
+            sc.rotation_period_s()
+        } else {
+            0.0
+        },
+        sc.sensor,
+    ))
+}
+
+/// A synthetic run's dataset, named `synthetic:NAME` and described: its scans (bearings
+/// counter-clockwise) with the exact poses they were taken from ([`ReferenceKind::GroundTruth`],
+/// the scanner's own: the offset is the identity), no odometry, each sweep lasting `sweep_s`.
+fn ground_truth_dataset(
+    (name, description): (&str, String),
+    (scans, reference): (Vec<Scan>, Vec<ReferencePose>),
+    reference_heading_sense: BearingSense,
+    dt_s: f64,
+    sweep_s: f64,
+    sensor: SensorModel,
+) -> Dataset {
+    Dataset {
         provenance: Provenance {
-            name: format!("synthetic:{}", scenario.name),
-            description: format!(
-                "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}{}",
-                scenario.name,
-                scenario.n_scans,
-                scenario.dt_s,
-                scenario.speed_mps,
-                scenario.seed,
-                rough_part,
-            ),
+            name: format!("synthetic:{name}"),
+            description,
             files: Vec::new(),
         },
         scans,
@@ -419,18 +452,13 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         reference_kind: Some(ReferenceKind::GroundTruth),
         odometry: None,
         scanner_offset: Some(Pose2::IDENTITY),
-        reference_heading_sense: BearingSense::Clockwise,
-        dt_s: scenario.dt_s,
-        // Without distortion every beam is cast from the revolution's start pose.
-        sweep_s: Some(if sc.motion_distortion {
-            sc.rotation_period_s()
-        } else {
-            0.0
-        }),
-        sensor: sc.sensor,
+        reference_heading_sense,
+        dt_s,
+        sweep_s: Some(sweep_s),
+        sensor,
         bearing_sense: BearingSense::CounterClockwise,
         warnings: Vec::new(),
         first_scans: None,
     }
-    .checked())
+    .checked()
 }

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use datasets::synthetic::{self, Corridor, Scenario};
+use datasets::synthetic::{self, Corridor, ScannerConfig, Scenario};
 use datasets::Dataset;
 use icp_core::SensorModel;
 
@@ -78,16 +78,7 @@ fn corridor(args: &SynthArgs) -> Result<Dataset> {
     }
     let mut c = Corridor::default();
     c.scanner.sensor.sigma_alpha_rad = args.sigma_alpha_deg.to_radians();
-    c.scanner.noise = !args.no_noise;
-    if let Some(n) = args.scans {
-        c.n_scans = n;
-    }
-    if let Some(seed) = args.seed {
-        c.seed = seed;
-    }
-    if let Some(f) = args.gross_error_fraction {
-        c.scanner.gross_error_fraction = f;
-    }
+    shared(args, &mut c.n_scans, &mut c.seed, &mut c.scanner);
     Ok(synthetic::generate_corridor_without_boats(
         &c,
         args.boats.as_deref(),
@@ -105,25 +96,32 @@ fn harbour(args: &SynthArgs) -> Result<Dataset> {
     })?;
     scenario.scanner.sensor = SensorModel::sweep_with_sigma_alpha_deg(args.sigma_alpha_deg)
         .context("--sigma-alpha-deg")?;
-    scenario.scanner.noise = !args.no_noise;
     scenario.scanner.motion_distortion |= args.motion_distortion;
-    if let Some(n) = args.scans {
-        scenario.n_scans = n;
-    }
+    shared(
+        args,
+        &mut scenario.n_scans,
+        &mut scenario.seed,
+        &mut scenario.scanner,
+    );
     if let Some(dt) = args.dt {
         scenario.dt_s = dt;
     }
     if let Some(v) = args.speed {
         scenario.speed_mps = v;
     }
-    if let Some(seed) = args.seed {
-        scenario.seed = seed;
-    }
-    if let Some(f) = args.gross_error_fraction {
-        scenario.scanner.gross_error_fraction = f;
-    }
     Ok(synthetic::generate_with_boats(
         &scenario,
         args.boats.as_deref(),
     )?)
+}
+
+/// The options every scenario takes: the number of scans, the seed, exact returns and the
+/// share of spurious ones.
+fn shared(args: &SynthArgs, n_scans: &mut usize, seed: &mut u64, scanner: &mut ScannerConfig) {
+    scanner.noise = !args.no_noise;
+    *n_scans = args.scans.unwrap_or(*n_scans);
+    *seed = args.seed.unwrap_or(*seed);
+    if let Some(f) = args.gross_error_fraction {
+        scanner.gross_error_fraction = f;
+    }
 }

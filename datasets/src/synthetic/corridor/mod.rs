@@ -10,7 +10,7 @@
 //!   scans on straight stretches, turning on the spot at corners and at the laboratory door
 //!   by 18–20° between scans; a scan every [`Corridor::dt_s`] (1 s: an indoor robot's
 //!   0.3–0.5 m/s). The reference is the scanner's own pose (the scanner offset is the
-//!   identity), [`ReferenceKind::GroundTruth`].
+//!   identity), [`crate::ReferenceKind::GroundTruth`].
 //! - The people ([`people`]): three walking the corridors at 1.0–1.4 m/s; their returns are
 //!   labelled moving ([`icp_core::Scan::moving`]), and only theirs.
 //! - The scanner: the CARMEN logs' SICK LMS 2xx, 180 beams 1° apart over 180° in front (the
@@ -29,10 +29,12 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use crate::carmen::SICK_LMS2XX;
-use crate::dataset::{Dataset, Pose2, Provenance, ReferenceKind, ReferencePose};
+use crate::dataset::{Dataset, ReferencePose};
 use crate::DatasetError;
 
-use super::{Scanner, ScannerConfig, NOISE_SEED_MIX};
+use super::{
+    check_ranges, ground_truth_dataset, run_checks, Scanner, ScannerConfig, NOISE_SEED_MIX,
+};
 
 pub mod building;
 pub mod people;
@@ -103,24 +105,14 @@ impl Corridor {
     }
 
     fn validate(&self) -> Result<(), DatasetError> {
-        let checks: [(&'static str, f64, bool); 3] = [
-            ("n_scans", self.n_scans as f64, self.n_scans >= 2),
-            ("dt_s", self.dt_s, self.dt_s.is_finite() && self.dt_s > 0.0),
-            (
-                "field_of_view_deg",
-                self.field_of_view_deg,
-                self.field_of_view_deg.is_finite()
-                    && self.field_of_view_deg > 0.0
-                    && self.field_of_view_deg <= 360.0,
-            ),
-        ];
-        if let Some((name, value, _)) = checks.into_iter().find(|c| !c.2) {
-            return Err(DatasetError::InvalidParameter {
-                name,
-                value,
-                reason: "out of range for a synthetic scenario",
-            });
-        }
+        check_ranges(run_checks(self.n_scans, self.dt_s))?;
+        check_ranges([(
+            "field_of_view_deg",
+            self.field_of_view_deg,
+            self.field_of_view_deg.is_finite()
+                && self.field_of_view_deg > 0.0
+                && self.field_of_view_deg <= 360.0,
+        )])?;
         self.scanner.validate()
     }
 }
@@ -156,37 +148,26 @@ pub fn generate_corridor(corridor: &Corridor) -> Result<Dataset, DatasetError> {
             scan_yaw_rad: Some(yaw),
         });
     }
-    Ok(Dataset {
-        provenance: Provenance {
-            name: format!("synthetic:{}", Corridor::NAME),
-            description: format!(
-                "synthetic office corridors, scenario \"corridor\": {} scans every {} s, \
-                 {} beams over {}° (SICK LMS 2xx model, {} m range), {} walking people, seed {}",
-                corridor.n_scans,
-                corridor.dt_s,
-                bearings.len(),
-                corridor.field_of_view_deg,
-                corridor.scanner.max_range_m,
-                walkers.len(),
-                corridor.seed,
-            ),
-            files: Vec::new(),
-        },
-        scans,
-        reference: Some(reference),
-        reference_kind: Some(ReferenceKind::GroundTruth),
-        odometry: None,
-        scanner_offset: Some(Pose2::IDENTITY),
-        reference_heading_sense: BearingSense::CounterClockwise,
-        dt_s: corridor.dt_s,
+    let description = format!(
+        "synthetic office corridors, scenario \"corridor\": {} scans every {} s, {} beams over \
+         {}° (SICK LMS 2xx model, {} m range), {} walking people, seed {}",
+        corridor.n_scans,
+        corridor.dt_s,
+        bearings.len(),
+        corridor.field_of_view_deg,
+        corridor.scanner.max_range_m,
+        walkers.len(),
+        corridor.seed,
+    );
+    Ok(ground_truth_dataset(
+        (Corridor::NAME, description),
+        (scans, reference),
+        BearingSense::CounterClockwise,
+        corridor.dt_s,
         // Every beam is cast from the scan's pose.
-        sweep_s: Some(0.0),
-        sensor: corridor.scanner.sensor,
-        bearing_sense: BearingSense::CounterClockwise,
-        warnings: Vec::new(),
-        first_scans: None,
-    }
-    .checked())
+        0.0,
+        corridor.scanner.sensor,
+    ))
 }
 
 #[cfg(test)]
