@@ -14,7 +14,7 @@ use std::str::FromStr;
 
 use crate::carmen::{self, CarmenOptions};
 use crate::rosbag::{self, ReferenceChoice, RosbagOptions};
-use crate::synthetic::{self, Scenario};
+use crate::synthetic::{self, Corridor, Scenario};
 use crate::{csvdir, marina, Dataset, DatasetError, ReferenceKind};
 
 /// What a kind takes after `kind:`.
@@ -93,8 +93,9 @@ pub static KINDS: &[Kind] = &[
     },
     Kind {
         name: "synthetic",
-        target: Target::Optional("paper|marina-like|rough"),
-        summary: "the simulated harbour with exact ground truth (default scenario: paper)",
+        target: Target::Optional("paper|marina-like|rough|corridor"),
+        summary: "the simulated harbour, or office corridors (corridor), with exact ground \
+                  truth (default scenario: paper)",
         options: &[
             OptionDoc {
                 name: "scans",
@@ -111,7 +112,8 @@ pub static KINDS: &[Kind] = &[
             OptionDoc {
                 name: "dt_s",
                 flag: Some("--dt"),
-                help: "time between scans, s (default: the scenario's)",
+                help: "time between scans, s (default: the scenario's; not corridor, whose \
+                       robot moves per scan)",
             },
             OptionDoc {
                 name: "boats",
@@ -621,22 +623,43 @@ fn open_marina(s: &DatasetSource) -> Result<Dataset, DatasetError> {
 
 fn open_synthetic(s: &DatasetSource) -> Result<Dataset, DatasetError> {
     let name = s.target.as_deref().unwrap_or("paper");
+    let (seed, n_scans) = (s.get("seed", "a non-negative integer")?, s.scans()?);
+    if name == Corridor::NAME {
+        return open_corridor(s, seed, n_scans);
+    }
     let mut scenario = Scenario::by_name(name).ok_or_else(|| SourceError::BadValue {
         kind: "synthetic",
         option: "scenario",
         value: name.to_owned(),
         expected: format!("expected {}", Scenario::NAMES),
     })?;
-    if let Some(seed) = s.get("seed", "a non-negative integer")? {
-        scenario.seed = seed;
-    }
+    scenario.seed = seed.unwrap_or(scenario.seed);
+    scenario.n_scans = n_scans.unwrap_or(scenario.n_scans);
     if let Some(dt) = s.dt_s()? {
         scenario.dt_s = dt;
     }
-    if let Some(n) = s.scans()? {
-        scenario.n_scans = n;
-    }
     synthetic::generate_with_boats(&scenario, s.raw("boats"))
+}
+
+/// The corridor scenario: `seed` and `scans` as for the harbour; `dt_s` and `boats` refused.
+fn open_corridor(
+    s: &DatasetSource,
+    seed: Option<u64>,
+    n_scans: Option<usize>,
+) -> Result<Dataset, DatasetError> {
+    if s.raw("dt_s").is_some() {
+        return Err(SourceError::NotApplicable {
+            kind: s.kind.name,
+            option: "dt_s",
+            flag: s.flag_of("dt_s"),
+            why: Corridor::PLANNED_PER_SCAN.to_owned(),
+        }
+        .into());
+    }
+    let mut corridor = Corridor::default();
+    corridor.seed = seed.unwrap_or(corridor.seed);
+    corridor.n_scans = n_scans.unwrap_or(corridor.n_scans);
+    synthetic::generate_corridor_without_boats(&corridor, s.raw("boats"))
 }
 
 fn open_carmen(s: &DatasetSource) -> Result<Dataset, DatasetError> {

@@ -17,7 +17,7 @@
 //! bearings grow counter-clockwise; the reference heading is navigational (clockwise from
 //! north), so yaw `ψ = 90° − HDG`.
 
-use icp_core::{BearingSense, ReadingTruth, Scan, SensorModel};
+use icp_core::{BearingSense, Scan, SensorModel};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -25,15 +25,19 @@ use serde::{Deserialize, Serialize};
 use crate::dataset::{Dataset, Pose2, Provenance, ReferenceKind, ReferencePose};
 use crate::DatasetError;
 
+pub mod corridor;
 pub mod rough;
 mod scanner;
 mod track;
 mod traffic;
 mod world;
 
+pub use corridor::{generate_corridor, Corridor};
 pub use rough::Rough;
 pub use scanner::{Revolution, Scanner};
-pub use traffic::{generate_with_boats, read_boats, BoatsError, NO_BOATS};
+pub use traffic::{
+    generate_corridor_without_boats, generate_with_boats, read_boats, BoatsError, NO_BOATS,
+};
 pub use world::{Segment, Surface};
 
 use track::Track;
@@ -90,6 +94,43 @@ impl ScannerConfig {
     /// Time of one revolution, seconds.
     pub fn rotation_period_s(&self) -> f64 {
         1.0 / self.rotation_hz
+    }
+
+    /// Refuses a configuration out of range (naming the field) or an unusable sensor model.
+    pub(crate) fn validate(&self) -> Result<(), DatasetError> {
+        check_ranges([
+            (
+                "max_range_m",
+                self.max_range_m,
+                self.max_range_m.is_finite() && self.max_range_m > 1.0,
+            ),
+            (
+                "sample_rate_hz",
+                self.sample_rate_hz,
+                self.sample_rate_hz.is_finite()
+                    && self.beams_per_rev() >= 3
+                    && self.beams_per_rev() <= 1_000_000,
+            ),
+            (
+                "dropout_prob",
+                self.dropout_prob,
+                (0.0..=1.0).contains(&self.dropout_prob),
+            ),
+            (
+                "gross_error_fraction",
+                self.gross_error_fraction,
+                (0.0..=1.0).contains(&self.gross_error_fraction),
+            ),
+            (
+                "rotation_hz",
+                self.rotation_hz,
+                self.rotation_hz.is_finite() && self.rotation_hz > 0.0,
+            ),
+        ])?;
+        self.sensor.validate().map_err(|e| DatasetError::BadValue {
+            path: "<scenario>".into(),
+            what: e.to_string(),
+        })
     }
 }
 
@@ -208,8 +249,8 @@ impl Scenario {
         }
     }
 
-    /// The scenarios' names, for messages.
-    pub const NAMES: &'static str = "paper, marina-like or rough";
+    /// The synthetic scenarios' names, for messages: the harbour's and [`Corridor::NAME`].
+    pub const NAMES: &'static str = "paper, marina-like, rough or corridor";
 
     /// A scenario by name: `paper`, `marina-like` or `rough`.
     pub fn by_name(name: &str) -> Option<Self> {
@@ -222,52 +263,13 @@ impl Scenario {
     }
 
     fn validate(&self) -> Result<(), DatasetError> {
-        let s = &self.scanner;
-        let checks: [(&'static str, f64, bool); 8] = [
-            ("n_scans", self.n_scans as f64, self.n_scans >= 2),
-            ("dt_s", self.dt_s, self.dt_s.is_finite() && self.dt_s > 0.0),
-            (
-                "speed_mps",
-                self.speed_mps,
-                self.speed_mps.is_finite() && self.speed_mps >= 0.0,
-            ),
-            (
-                "max_range_m",
-                s.max_range_m,
-                s.max_range_m.is_finite() && s.max_range_m > 1.0,
-            ),
-            (
-                "sample_rate_hz",
-                s.sample_rate_hz,
-                s.sample_rate_hz.is_finite()
-                    && s.beams_per_rev() >= 3
-                    && s.beams_per_rev() <= 1_000_000,
-            ),
-            (
-                "dropout_prob",
-                s.dropout_prob,
-                (0.0..=1.0).contains(&s.dropout_prob),
-            ),
-            (
-                "gross_error_fraction",
-                s.gross_error_fraction,
-                (0.0..=1.0).contains(&s.gross_error_fraction),
-            ),
-            (
-                "rotation_hz",
-                s.rotation_hz,
-                s.rotation_hz.is_finite() && s.rotation_hz > 0.0,
-            ),
-        ];
-        for (name, value, ok) in checks {
-            if !ok {
-                return Err(DatasetError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "out of range for a synthetic scenario",
-                });
-            }
-        }
+        check_ranges(run_checks(self.n_scans, self.dt_s))?;
+        check_ranges([(
+            "speed_mps",
+            self.speed_mps,
+            self.speed_mps.is_finite() && self.speed_mps >= 0.0,
+        )])?;
+        self.scanner.validate()?;
         let finite = [
             self.speed_wobble_mps,
             self.initial_heading_deg,
@@ -289,17 +291,14 @@ impl Scenario {
                 reason: "a turn must end after it starts",
             });
         }
-        if let Some((name, value, reason)) = self.rough.as_ref().and_then(Rough::invalid) {
-            return Err(DatasetError::InvalidParameter {
+        match self.rough.as_ref().and_then(Rough::invalid) {
+            Some((name, value, reason)) => Err(DatasetError::InvalidParameter {
                 name,
                 value,
                 reason,
-            });
+            }),
+            None => Ok(()),
         }
-        s.sensor.validate().map_err(|e| DatasetError::BadValue {
-            path: "<scenario>".into(),
-            what: e.to_string(),
-        })
     }
 
     /// Navigational heading at time `t_s`, degrees (unwrapped).
@@ -322,6 +321,32 @@ impl Scenario {
     }
 }
 
+/// The first of `checks` (a parameter's name, its value, whether it is in range) out of
+/// range, as the error naming it.
+fn check_ranges<const N: usize>(
+    checks: [(&'static str, f64, bool); N],
+) -> Result<(), DatasetError> {
+    match checks.into_iter().find(|c| !c.2) {
+        Some((name, value, _)) => Err(DatasetError::InvalidParameter {
+            name,
+            value,
+            reason: "out of range for a synthetic scenario",
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The checks of every synthetic run: at least two scans, a finite positive spacing.
+fn run_checks(n_scans: usize, dt_s: f64) -> [(&'static str, f64, bool); 2] {
+    [
+        ("n_scans", n_scans as f64, n_scans >= 2),
+        ("dt_s", dt_s, dt_s.is_finite() && dt_s > 0.0),
+    ]
+}
+
+/// Mixed into a scenario's seed to seed its noise, apart from its events.
+const NOISE_SEED_MIX: u64 = 0x005e_ed0f_5e45;
+
 /// The ChaCha8 stream of the rough harbour's wave phases.
 const SEA_STREAM: u64 = 22;
 
@@ -332,7 +357,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
     let duration_s = (scenario.n_scans - 1) as f64 * scenario.dt_s + sc.rotation_period_s();
     let track = Track::new(scenario, duration_s);
     let mut event_rng = ChaCha8Rng::seed_from_u64(scenario.seed);
-    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ 0x005e_ed0f_5e45);
+    let mut noise_rng = ChaCha8Rng::seed_from_u64(scenario.seed ^ NOISE_SEED_MIX);
     let (world, surfaces) = build_world(&track, duration_s, &mut event_rng);
     let scanner = Scanner::new(sc, &world);
     let pose_at = |t: f64| track.pose_at(t);
@@ -365,18 +390,7 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
                 track.pose_at(t_k),
             ),
         };
-        let truth = ReadingTruth {
-            true_normals: Some(&rev.true_normals),
-            moving: Some(&rev.moving),
-        };
-        let scan = Scan::from_polar_with_truth(&rev.ranges_m, &rev.bearings_rad, truth)
-            .and_then(|s| s.with_timestamp(t_k))
-            .map_err(|source| DatasetError::Scan {
-                path: "<synthetic>".into(),
-                scan: k,
-                source,
-            })?;
-        scans.push(scan);
+        scans.push(rev.scan(k, t_k)?);
         let yaw = pose_k.rotation.angle();
         reference.push(ReferencePose {
             x_m: pose_k.translation.x,
@@ -392,18 +406,45 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
             rough::Boat::describe(&r.boats)
         )
     });
-    Ok(Dataset {
+    let description = format!(
+        "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}{}",
+        scenario.name,
+        scenario.n_scans,
+        scenario.dt_s,
+        scenario.speed_mps,
+        scenario.seed,
+        rough_part,
+    );
+    Ok(ground_truth_dataset(
+        (&scenario.name, description),
+        (scans, reference),
+        BearingSense::Clockwise,
+        scenario.dt_s,
+        // Without distortion every beam is cast from the revolution's start pose.
+        if sc.motion_distortion {
+            sc.rotation_period_s()
+        } else {
+            0.0
+        },
+        sc.sensor,
+    ))
+}
+
+/// A synthetic run's dataset, named `synthetic:NAME` and described: its scans (bearings
+/// counter-clockwise) with the exact poses they were taken from ([`ReferenceKind::GroundTruth`],
+/// the scanner's own: the offset is the identity), no odometry, each sweep lasting `sweep_s`.
+fn ground_truth_dataset(
+    (name, description): (&str, String),
+    (scans, reference): (Vec<Scan>, Vec<ReferencePose>),
+    reference_heading_sense: BearingSense,
+    dt_s: f64,
+    sweep_s: f64,
+    sensor: SensorModel,
+) -> Dataset {
+    Dataset {
         provenance: Provenance {
-            name: format!("synthetic:{}", scenario.name),
-            description: format!(
-                "synthetic harbour basin, scenario {:?}: {} scans every {} s at {} m/s, seed {}{}",
-                scenario.name,
-                scenario.n_scans,
-                scenario.dt_s,
-                scenario.speed_mps,
-                scenario.seed,
-                rough_part,
-            ),
+            name: format!("synthetic:{name}"),
+            description,
             files: Vec::new(),
         },
         scans,
@@ -411,18 +452,13 @@ pub fn generate(scenario: &Scenario) -> Result<Dataset, DatasetError> {
         reference_kind: Some(ReferenceKind::GroundTruth),
         odometry: None,
         scanner_offset: Some(Pose2::IDENTITY),
-        reference_heading_sense: BearingSense::Clockwise,
-        dt_s: scenario.dt_s,
-        // Without distortion every beam is cast from the revolution's start pose.
-        sweep_s: Some(if sc.motion_distortion {
-            sc.rotation_period_s()
-        } else {
-            0.0
-        }),
-        sensor: sc.sensor,
+        reference_heading_sense,
+        dt_s,
+        sweep_s: Some(sweep_s),
+        sensor,
         bearing_sense: BearingSense::CounterClockwise,
         warnings: Vec::new(),
         first_scans: None,
     }
-    .checked())
+    .checked()
 }

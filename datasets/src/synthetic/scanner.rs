@@ -1,6 +1,7 @@
 //! The simulated scanner: one revolution's beams cast against the world, with the sensor
 //! model's noise (eq. 8), dropouts, spurious returns and optional motion distortion.
 
+use icp_core::{ReadingTruth, Scan};
 use nalgebra::{Isometry2, Point2, Vector2};
 use rand::Rng;
 use rand_chacha::ChaCha8Rng;
@@ -8,6 +9,7 @@ use rand_distr::{Distribution, Normal};
 
 use super::world::{Sectors, Segment};
 use super::ScannerConfig;
+use crate::DatasetError;
 
 /// One revolution's readings, one entry per beam, in the scan frame (the scanner's frame at
 /// the revolution's start).
@@ -21,21 +23,54 @@ pub struct Revolution {
     /// the segment hit, facing the beam's origin. `None` for a spurious return and for a beam
     /// without return.
     pub true_normals: Vec<Option<Vector2<f64>>>,
-    /// Whether each beam's return came from a moving hull ([`super::rough::Boat`]): `false`
-    /// for every beam of a harbour without traffic.
+    /// Whether each beam's return came from a moving body (a hull, [`super::rough::Boat`]; a
+    /// walking person, [`super::corridor`]): `false` for every beam of a still world.
     pub moving: Vec<bool>,
+}
+
+impl Revolution {
+    /// Scan `k` of a synthetic run, taken at `t_s`, with its truth: normals and moving labels.
+    pub(super) fn scan(&self, k: usize, t_s: f64) -> Result<Scan, DatasetError> {
+        let truth = ReadingTruth {
+            true_normals: Some(&self.true_normals),
+            moving: Some(&self.moving),
+        };
+        Scan::from_polar_with_truth(&self.ranges_m, &self.bearings_rad, truth)
+            .and_then(|s| s.with_timestamp(t_s))
+            .map_err(|source| DatasetError::Scan {
+                path: "<synthetic>".into(),
+                scan: k,
+                source,
+            })
+    }
 }
 
 /// Casts the scanner's beams against a world.
 pub struct Scanner<'a> {
     config: &'a ScannerConfig,
     world: &'a [Segment],
+    /// Segments from this index on are moving bodies: their returns are labelled moving.
+    moving_from: usize,
 }
 
 impl<'a> Scanner<'a> {
-    /// A scanner in `world`.
+    /// A scanner in a still `world`.
     pub fn new(config: &'a ScannerConfig, world: &'a [Segment]) -> Self {
-        Self { config, world }
+        Self::with_moving_from(config, world, world.len())
+    }
+
+    /// A scanner in `world` whose segments from `moving_from` on belong to moving bodies
+    /// (people, [`super::corridor`]): every return off one of them is labelled moving.
+    pub fn with_moving_from(
+        config: &'a ScannerConfig,
+        world: &'a [Segment],
+        moving_from: usize,
+    ) -> Self {
+        Self {
+            config,
+            world,
+            moving_from,
+        }
     }
 
     /// One revolution starting at `t_s`, with the scanner at `pose_at(t)` (world frame):
@@ -50,39 +85,78 @@ impl<'a> Scanner<'a> {
         event_rng: &mut ChaCha8Rng,
     ) -> Revolution {
         let sc = self.config;
-        let unit = Normal::new(0.0, 1.0).expect("unit normal");
         let beams = sc.beams_per_rev();
         let beam_step = std::f64::consts::TAU / beams as f64;
-        let start = pose_at(t_s);
-        let world_to_scan = start.rotation.inverse();
-        let centre = Point2::from(start.translation.vector);
-        let reach = sc.max_range_m + if sc.motion_distortion { 2.0 } else { 0.0 };
-        let near: Vec<&Segment> = self
-            .world
-            .iter()
-            .filter(|s| s.distance_to(&centre) <= reach)
-            .collect();
         let poses: Vec<Isometry2<f64>> = (0..beams)
             .map(|j| {
                 if sc.motion_distortion {
                     pose_at(t_s + sc.rotation_period_s() * j as f64 / beams as f64)
                 } else {
-                    start
+                    pose_at(t_s)
                 }
             })
             .collect();
+        let sectors = self.sectors(&poses);
+        // Each revolution starts at a random fraction of a beam, as a free-running scanner does.
+        let phase = event_rng.random_range(0.0..beam_step);
+        let bearings: Vec<f64> = (0..beams).map(|j| phase + j as f64 * beam_step).collect();
+        self.cast(&sectors, &poses, &bearings, noise_rng, event_rng)
+    }
+
+    /// One scan of a fixed fan of beams at `bearings_rad` (scanner frame), all cast from
+    /// `pose` (world frame): a scanner whose bearings are the same every scan, like a SICK
+    /// LMS, and whose sweep is short beside the motion between scans. The ScannerConfig's
+    /// motion distortion does not apply.
+    pub fn scan_fan(
+        &self,
+        pose: &Isometry2<f64>,
+        bearings_rad: &[f64],
+        noise_rng: &mut ChaCha8Rng,
+        event_rng: &mut ChaCha8Rng,
+    ) -> Revolution {
+        let poses = vec![*pose; bearings_rad.len()];
+        let sectors = self.sectors(&poses);
+        self.cast(&sectors, &poses, bearings_rad, noise_rng, event_rng)
+    }
+
+    /// The sector index of the segments within reach of the beams' origins `poses` (the first
+    /// is the scan's start), with the segments' positions in the world.
+    fn sectors(&self, poses: &[Isometry2<f64>]) -> (Sectors<'a>, Vec<usize>) {
+        let sc = self.config;
+        let centre = Point2::from(poses[0].translation.vector);
+        let reach = sc.max_range_m + if sc.motion_distortion { 2.0 } else { 0.0 };
+        let (index, near): (Vec<usize>, Vec<&Segment>) = self
+            .world
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.distance_to(&centre) <= reach)
+            .unzip();
         let spread = poses
             .iter()
             .map(|p| (Point2::from(p.translation.vector) - centre).norm())
             .fold(0.0, f64::max);
-        let sectors = Sectors::new(near, &centre, spread);
-        // Each revolution starts at a random fraction of a beam, as a free-running scanner does.
-        let phase = event_rng.random_range(0.0..beam_step);
-        let mut ranges = Vec::with_capacity(beams);
-        let mut bearings = Vec::with_capacity(beams);
-        let mut normals = Vec::with_capacity(beams);
-        for (j, pose) in poses.iter().enumerate() {
-            let bearing = phase + j as f64 * beam_step;
+        (Sectors::new(near, &centre, spread), index)
+    }
+
+    /// The beams at `bearings` from `poses` (one each; the first is the scan's frame).
+    fn cast(
+        &self,
+        (sectors, index): &(Sectors<'a>, Vec<usize>),
+        poses: &[Isometry2<f64>],
+        bearings: &[f64],
+        noise_rng: &mut ChaCha8Rng,
+        event_rng: &mut ChaCha8Rng,
+    ) -> Revolution {
+        let sc = self.config;
+        let unit = Normal::new(0.0, 1.0).expect("unit normal");
+        let world_to_scan = poses[0].rotation.inverse();
+        let mut rev = Revolution {
+            ranges_m: Vec::with_capacity(bearings.len()),
+            bearings_rad: Vec::with_capacity(bearings.len()),
+            true_normals: Vec::with_capacity(bearings.len()),
+            moving: Vec::with_capacity(bearings.len()),
+        };
+        for (pose, &bearing) in poses.iter().zip(bearings) {
             let (n_alpha, n_range) = (unit.sample(noise_rng), unit.sample(noise_rng));
             let alpha_err = if sc.noise {
                 sc.sensor.sigma_alpha_rad * n_alpha
@@ -93,10 +167,10 @@ impl<'a> Scanner<'a> {
                 * Vector2::new((bearing + alpha_err).cos(), (bearing + alpha_err).sin());
             let origin = Point2::from(pose.translation.vector);
             let hit = sectors
-                .cast(&origin, &dir)
+                .cast_index(&origin, &dir)
                 .filter(|&(t, _)| t <= sc.max_range_m);
-            let (mut r, mut normal) = (f64::NAN, None);
-            if let Some((hit, segment)) = hit {
+            let (mut r, mut normal, mut moving) = (f64::NAN, None, false);
+            if let Some((hit, i)) = hit {
                 if !event_rng.random_bool(sc.dropout_prob) {
                     r = hit
                         + if sc.noise {
@@ -104,24 +178,22 @@ impl<'a> Scanner<'a> {
                         } else {
                             0.0
                         };
+                    let segment = &self.world[index[i]];
                     normal = segment.normal_facing(&dir).map(|n| world_to_scan * n);
+                    moving = index[i] >= self.moving_from;
                 }
             }
             if event_rng.random_bool(sc.gross_error_fraction) {
                 r = event_rng.random_range(1.0..0.5 * sc.max_range_m);
-                normal = None;
+                (normal, moving) = (None, false);
             }
             let returned = r > 0.0;
-            ranges.push(if returned { r } else { f64::NAN });
-            bearings.push(bearing);
-            normals.push(normal.filter(|_| returned));
+            rev.ranges_m.push(if returned { r } else { f64::NAN });
+            rev.bearings_rad.push(bearing);
+            rev.true_normals.push(normal.filter(|_| returned));
+            rev.moving.push(moving && returned);
         }
-        Revolution {
-            moving: vec![false; ranges.len()],
-            ranges_m: ranges,
-            bearings_rad: bearings,
-            true_normals: normals,
-        }
+        rev
     }
 }
 

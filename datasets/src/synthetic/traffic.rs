@@ -13,7 +13,7 @@
 use std::path::{Path, PathBuf};
 
 use super::rough::{Boat, Rough};
-use super::{generate, Scenario};
+use super::{generate, generate_corridor, Corridor, Scenario};
 use crate::{Dataset, DatasetError, FileProvenance};
 
 /// The value that names a rough harbour without boats (a file so named is `./none`).
@@ -136,4 +136,19 @@ pub fn generate_with_boats(
         ds.provenance.files.push(file);
     }
     Ok(ds)
+}
+
+/// [`generate_corridor`], refusing boats when `boats` names any: the corridor has walking
+/// people, not boats.
+pub fn generate_corridor_without_boats(
+    corridor: &Corridor,
+    boats: Option<&str>,
+) -> Result<Dataset, DatasetError> {
+    if boats.is_some() {
+        return Err(BoatsError::NotRough {
+            scenario: Corridor::NAME.to_owned(),
+        }
+        .into());
+    }
+    generate_corridor(corridor)
 }

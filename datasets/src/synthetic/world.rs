@@ -242,13 +242,8 @@ impl<'w> Sectors<'w> {
     }
 
     /// The nearest hit of the ray `o + t u` (`|u| = 1`, `o` within the spread): its distance
-    /// `t`, metres, and the segment hit (of several at exactly that distance, the first).
-    pub(super) fn cast(&self, o: &Point2<f64>, u: &Vector2<f64>) -> Option<(f64, &'w Segment)> {
-        self.cast_index(o, u).map(|(t, i)| (t, self.segments[i]))
-    }
-
-    /// [`Sectors::cast`] naming the segment by its position in the list the index was built
-    /// from.
+    /// `t`, metres, and the segment hit (of several at exactly that distance, the first), named
+    /// by its position in the list the index was built from.
     pub(super) fn cast_index(&self, o: &Point2<f64>, u: &Vector2<f64>) -> Option<(f64, usize)> {
         let k = Self::sector(u.y.atan2(u.x));
         self.members[self.start[k] as usize..self.start[k + 1] as usize]
@@ -296,7 +291,7 @@ mod tests {
                         .iter()
                         .filter_map(|s| s.hit(&o, &u))
                         .fold(f64::INFINITY, f64::min);
-                    let cast = sectors.cast(&o, &u);
+                    let cast = sectors.cast_index(&o, &u).map(|(t, i)| (t, sectors.segments[i]));
                     prop_assert_eq!(cast.map_or(f64::INFINITY, |(t, _)| t).to_bits(), brute.to_bits());
                     // The segment named is the first one hit at exactly that distance.
                     let first = world.iter().find(|s| s.hit(&o, &u) == Some(brute));
@@ -320,7 +315,7 @@ mod tests {
         let sectors = Sectors::new(vec![&wall], &Point2::origin(), 0.0);
         for psi in [std::f64::consts::PI, -std::f64::consts::PI, 3.0, -3.0] {
             let u = Vector2::new(psi.cos(), psi.sin());
-            let (t, _) = sectors.cast(&Point2::origin(), &u).unwrap();
+            let (t, _) = sectors.cast_index(&Point2::origin(), &u).unwrap();
             assert!((t - 10.0 / psi.cos().abs()).abs() < 1e-9, "{psi}: {t}");
         }
         // Seen from the centre it spans 2 atan(3/10) = 33.4° of the turn: 47.5 sectors of the 512,
