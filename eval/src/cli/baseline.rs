@@ -8,9 +8,9 @@ use std::process::ExitCode;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use eval::measure::gate::{baseline_of, BUILTIN_TOLERANCE};
-use eval::render::json::summary_json;
+use eval::render::json::{summary_json, SUMMARY_FILE};
 
-use crate::cli::gate::{read_report, tolerance_beside, SUMMARY_FILE};
+use crate::cli::gate::{read_report, tolerance_beside};
 
 #[derive(Args)]
 pub(crate) struct BaselineArgs {

@@ -7,12 +7,11 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use eval::measure::gate::{gate, incompatibility, Tolerances};
 use eval::measure::report::RunReport;
+use eval::render::json::SUMMARY_FILE;
 use eval::render::markdown::gate::outcome_md;
 
 /// The name of a tolerance file beside its baseline.
 pub(crate) const TOLERANCE_FILE: &str = "tolerance.json";
-/// The name of a run's summary in its output directory.
-pub(crate) const SUMMARY_FILE: &str = "summary.json";
 
 #[derive(Args)]
 pub(crate) struct GateArgs {

@@ -5,9 +5,12 @@ use crate::error::EvalError;
 use crate::measure::report::RunReport;
 use crate::render::outdir::OutputDir;
 
+/// The name of a run's summary in its output directory.
+pub const SUMMARY_FILE: &str = "summary.json";
+
 /// Writes `summary.json` and `config.json`.
 pub fn write(out: &mut OutputDir, report: &RunReport) -> Result<(), EvalError> {
-    out.write("summary.json", summary_json(report)?.as_bytes())?;
+    out.write(SUMMARY_FILE, summary_json(report)?.as_bytes())?;
     out.write("config.json", pretty(&report.config)?.as_bytes())
 }
 
