@@ -394,13 +394,9 @@ mod tests {
     }
 
     #[test]
-    fn the_builtin_tolerance_is_the_committed_file() {
-        let committed = std::fs::read_to_string(
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../reports/baseline/tolerance.json"),
-        )
-        .unwrap();
-        assert_eq!(Tolerances::builtin(), Tolerances::parse(&committed));
+    fn the_builtin_tolerance_file_is_valid_and_bad_files_are_refused() {
+        // BUILTIN_TOLERANCE is the committed file itself (include_str!): what can go wrong is
+        // that file failing to parse or validate, which would break every default gate.
         assert!(Tolerances::builtin().is_ok());
         assert!(Tolerances::parse(r#"{"default": {"abs": -1, "rel": 0}}"#).is_err());
         assert!(Tolerances::parse("{").is_err());
