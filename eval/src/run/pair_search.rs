@@ -3,6 +3,9 @@
 //! searches, the best pose when a start needs it (`--init global`), and the check of each
 //! result against it ([`GlobalCheck`]), the results of a pair's variants together.
 //!
+//! The same grid scores the poses around each result ([`Searched::ambiguity`]): the ambiguity
+//! term of the extended covariance and the `ambiguous` flag.
+//!
 //! A check asks only the question the suspect rule asks: does a pose score more than the
 //! result plus [`SUSPECT_SCORE_GAIN`](crate::run::status::SUSPECT_SCORE_GAIN)? The branch and bound searches above that bar alone
 //! ([`GlobalMatcher::best_above`]): when nothing clears it (a right result) it proves the
@@ -12,6 +15,7 @@
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
+use icp_core::global::ambiguity::{ambiguity, Ambiguity, AmbiguityParams, AmbiguityProblem};
 use icp_core::global::{
     score_at, Above, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool,
     SourceSearch,
@@ -61,6 +65,26 @@ impl<'w> Searched<'w> {
     /// The best pose, when it was asked for.
     pub fn guess(&self) -> Option<&GlobalGuess> {
         self.guess.as_ref()
+    }
+
+    /// The poses around `result` (of `source`) that the reference's likelihood grid scores
+    /// almost as well, with the default [`AmbiguityParams`] (`icp_core::global::ambiguity`);
+    /// its time is the checks'.
+    pub fn ambiguity(
+        &self,
+        result: &Isometry2<f64>,
+        source: &Scan,
+    ) -> Result<Ambiguity, AmbiguityProblem> {
+        let clock = Instant::now();
+        let answer = ambiguity(
+            self.matcher.grid(),
+            source,
+            result,
+            &AmbiguityParams::default(),
+        );
+        *self.check_us.lock().unwrap_or_else(PoisonError::into_inner) +=
+            clock.elapsed().as_secs_f64() * 1e6;
+        answer
     }
 
     /// Wall time of the checks made so far, microseconds.
