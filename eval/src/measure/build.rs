@@ -379,6 +379,7 @@ fn summarize(
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
         suspect_pairs: flagged(rows, StatusKind::Suspect),
+        ambiguous_pairs: flagged(rows, StatusKind::Ambiguous),
         inconsistent_pairs: flagged(rows, StatusKind::Inconsistent),
         trajectory: TrajectoryStats {
             heading_rms_error_deg: {

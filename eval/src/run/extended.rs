@@ -100,29 +100,12 @@ pub fn of_registration(
     }
 }
 
-/// The conditioning ratio below which a registration's ambiguity term is added: ten times
-/// [`icp_core::quality::DEGENERATE_RATIO`]. The lattice of the ambiguity term is as coarse as
-/// the likelihood grid (0.1 m cells, σ 0.1 m): around a well-conditioned optimum its
-/// near-optimal poses reach a cell or two by the grid's own blur, not because the scene allows
-/// them, and a term of a cell's size would swamp a covariance of millimetres. Along a weakly
-/// constrained direction the blur and a slide look alike to the grid, and the term is kept.
-/// Chosen on `synthetic:corridor` seeds 7, 11, 13 with the paper and rough harbours' default
-/// seeds beside them: of the registrations whose near-optimal poses reach beyond
-/// [`AmbiguityParams::peak_radius_m`](icp_core::global::ambiguity::AmbiguityParams), those
-/// more than 0.1 m off on the corridor (seed 13, 869 over the four variants) all have a
-/// ratio below 0.067; those within 5 cm on the paper harbour (701) all above 0.156, on the
-/// rough harbour (681) 97 % above 0.1.
-pub const WEAK_CONDITIONING: f64 = 0.1;
-
 /// The ambiguity term of `run` (`icp_core::global::ambiguity`: the spread of the poses the
 /// reference's likelihood grid scores almost as well as the result, zero where they all lie
-/// within its peak), where its registration's conditioning ratio is below
-/// [`WEAK_CONDITIONING`] (or not known).
+/// within its peak), where it was assessed (a weakly conditioned registration:
+/// [`crate::run::pair_search::WEAK_CONDITIONING`]).
 pub fn ambiguity_term(run: &PairRun) -> Option<Matrix3<f64>> {
-    let reg = run.result.as_ref().ok()?;
-    let weak = reg.conditioning.is_none_or(|c| c.ratio < WEAK_CONDITIONING);
-    let a = run.ambiguity.as_ref()?.as_ref().ok()?;
-    weak.then_some(a.term)
+    Some(run.ambiguity.as_ref()?.as_ref().ok()?.term)
 }
 
 /// What the extended modes add to a registration's covariance besides the lift: the `motion`

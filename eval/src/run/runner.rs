@@ -432,7 +432,8 @@ impl BlockJob<'_> {
     }
 
     /// The ambiguity of `result` of `pair` on the pair's likelihood grid, when the plan asks
-    /// for it and the grid was built (`None` for a failed registration).
+    /// for it, the grid was built and the result is weakly conditioned ([`Searched::ambiguity`];
+    /// `None` for a failed registration).
     fn ambiguity(
         &self,
         result: &Result<Registration, IcpError>,
@@ -440,9 +441,10 @@ impl BlockJob<'_> {
         pair: ScanPair,
     ) -> Option<Result<Ambiguity, AmbiguityProblem>> {
         let (reg, searched) = (result.as_ref().ok()?, searched?);
-        self.plan
-            .ambiguity
-            .then(|| searched.ambiguity(&reg.t_ref_src, &self.ds.scans[pair.source]))
+        if !self.plan.ambiguity {
+            return None;
+        }
+        searched.ambiguity(reg, &self.ds.scans[pair.source])
     }
 
     /// The external estimate of the pair at `position` in the run, assessed at its pose and

@@ -15,7 +15,11 @@
 //! `K = Σ p_i x_i x_iᵀ`, `u = Σ p_i x_i`, `s = Σ p_i`. The term is the second moment about the
 //! result `x̂` rather than about their mean, `Σ + (u/s − x̂)(u/s − x̂)ᵀ`, so that a result off to
 //! one side of the poses the scene allows is as far from them as it is. Over
-//! `(tx m, ty m, θ rad)`, the parameterisation of the registrations' covariances.
+//! `(tx m, ty m, θ rad)`, the parameterisation of the registrations' covariances. Each pose of
+//! the lattice stands for its cell (a grid cell by a rotation step), the truth anywhere in it:
+//! the cell's own second moment about its centre, `diag(res², res², step²)/12`, is added, so that
+//! a ridge one cell wide along a slanted corridor (a staircase of cells whose centres lie on a
+//! line) is not taken as known to a millimetre across.
 //!
 //! The lattice is as coarse as the grid (a cell, 0.1 m by default): around a well-defined
 //! optimum it cannot resolve a covariance of millimetres, and its second moment there would be
@@ -39,7 +43,7 @@
 use nalgebra::{Isometry2, Matrix3, Point2, UnitComplex, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::grid::{range_weight, LikelihoodGrid};
+use super::grid::{range_weight, suffix_sums, LikelihoodGrid, CHUNK, FULL_SCALE};
 use crate::Scan;
 
 /// The parameters of [`ambiguity`].
@@ -199,11 +203,11 @@ pub fn ambiguity(
     result: &Isometry2<f64>,
     params: &AmbiguityParams,
 ) -> Result<Ambiguity, AmbiguityProblem> {
-    let returns: Vec<(Point2<f64>, u64)> = source
+    let returns: Vec<(Point2<f64>, u32)> = source
         .returns()
         .iter()
         .filter(|r| r.point.x.is_finite() && r.point.y.is_finite())
-        .map(|r| (r.point, u64::from(range_weight(r))))
+        .map(|r| (r.point, range_weight(r)))
         .collect();
     let need = params.min_returns;
     if returns.len() < need {
@@ -224,13 +228,14 @@ pub fn ambiguity(
     if on_map < need {
         return Err(AmbiguityProblem::OffTheMap { got: on_map, need });
     }
+    // The grid is padded for offsets of its own window: the lattice stays inside it.
     let lattice = Lattice {
-        w: (params.window_m / res).round().max(0.0) as i32,
+        w: ((params.window_m / res).round().max(0.0) as i32).min(grid.window_cells()),
         k: params.rotation_steps as i32,
     };
     let step_rad = params.rotation_step_deg.to_radians();
-    let total: u64 = returns.iter().map(|(_, w)| w).sum();
-    let full = total * u64::from(super::grid::FULL_SCALE);
+    let total: u64 = returns.iter().map(|&(_, w)| u64::from(w)).sum();
+    let full = total * u64::from(FULL_SCALE);
     let sums = lattice_sums(
         grid,
         &returns,
@@ -283,7 +288,11 @@ pub fn ambiguity(
             moment += e * e.transpose() * p;
             weight += p;
         }
-        moment / weight
+        // Each pose stands for its cell of the lattice, the pose anywhere in it: the second
+        // moment of a uniform spread over a cell about its centre, a twelfth of its side squared
+        // on each axis.
+        let cell = Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0;
+        moment / weight + Matrix3::from_diagonal(&cell)
     } else {
         Matrix3::zeros()
     };
@@ -306,10 +315,12 @@ pub fn ambiguity(
 
 /// The weighted sums (quantised likelihood times range weight) of every pose of `lattice`
 /// around `result`; a pose that cannot reach `ratio` × the best found so far is left at 0, its
-/// block of offsets skipped when the max-pooled level bounding it says so (Hess et al. 2016).
+/// block of offsets skipped when the max-pooled level bounding it says so (Hess et al. 2016),
+/// each sum given up as soon as its returns left cannot lift it there (the global search's
+/// lookups and sums, `LikelihoodGrid::sum_above`).
 fn lattice_sums(
     grid: &LikelihoodGrid,
-    returns: &[(Point2<f64>, u64)],
+    returns: &[(Point2<f64>, u32)],
     result: &Isometry2<f64>,
     lattice: &Lattice,
     step_rad: f64,
@@ -317,16 +328,13 @@ fn lattice_sums(
 ) -> Vec<u64> {
     let level = grid.depth().min(2);
     let block = 1i32 << level;
+    let w = lattice.w;
     let mut sums = vec![0u64; lattice.len()];
-    let mut cells: Vec<([i32; 2], u64)> = Vec::with_capacity(returns.len());
-    let sum_at = |cells: &[([i32; 2], u64)], level: u32, [dx, dy]: [i32; 2]| -> u64 {
-        cells
-            .iter()
-            .map(|&([i, j], w)| u64::from(grid.value(level, [i + dx, j + dy])) * w)
-            .sum()
-    };
+    let (mut lookups, mut headroom, mut chunk_sums) = (Vec::new(), Vec::new(), Vec::new());
+    let mut read = 0;
     let mut best = 0u64;
-    let floor = |best: u64| (ratio * best as f64).ceil() as u64;
+    // Above this a sum may be near-optimal: below `ratio` × the best so far, it is not.
+    let floor = |best: u64| ((ratio * best as f64).ceil() as u64).saturating_sub(1);
     // The result's rotation first, its centre first: the floor starts at the result's score.
     let rotations = std::iter::once(0).chain((-lattice.k..=lattice.k).filter(|&r| r != 0));
     for r in rotations {
@@ -334,31 +342,52 @@ fn lattice_sums(
             result.translation,
             result.rotation * UnitComplex::new(f64::from(r) * step_rad),
         );
-        cells.clear();
-        cells.extend(returns.iter().map(|(p, w)| (grid.cell_of(&(pose * p)), *w)));
+        lookups.clear();
+        grid.lookups(returns.iter().map(|&(p, w)| (pose * p, w)), &mut lookups);
+        headroom.clear();
+        headroom.extend(lookups.chunks(CHUNK).map(|chunk| {
+            chunk
+                .iter()
+                .map(|l| u64::from(l.weight) * u64::from(FULL_SCALE))
+                .sum::<u64>()
+        }));
+        suffix_sums(&mut headroom);
+        chunk_sums.resize(headroom.len(), 0);
+        let mut sum_above = |level: u32, offset: [i32; 2], floor: u64| {
+            let shift = grid.shift(offset);
+            grid.sum_above(
+                level,
+                &lookups,
+                &headroom,
+                shift,
+                floor,
+                &mut read,
+                &mut chunk_sums,
+            )
+        };
         if r == 0 {
-            let centre = sum_at(&cells, 0, [0, 0]);
+            let centre = sum_above(0, [0, 0], 0).unwrap_or(0);
             sums[lattice.index([0, 0, 0])] = centre;
             best = best.max(centre);
         }
-        let w = lattice.w;
         for oy in (-w..=w).step_by(block as usize) {
             for ox in (-w..=w).step_by(block as usize) {
-                if sum_at(&cells, level, [ox, oy]) < floor(best).max(1) {
+                if sum_above(level, [ox, oy], floor(best)).is_none() {
                     continue;
                 }
                 for dy in oy..(oy + block).min(w + 1) {
                     for dx in ox..(ox + block).min(w + 1) {
-                        let s = sum_at(&cells, 0, [dx, dy]);
-                        sums[lattice.index([dx, dy, r])] = s;
-                        best = best.max(s);
+                        if let Some(s) = sum_above(0, [dx, dy], floor(best)) {
+                            sums[lattice.index([dx, dy, r])] = s;
+                            best = best.max(s);
+                        }
                     }
                 }
             }
         }
     }
     // Poses scored before the floor rose to its final height may be below it: the caller
-    // keeps only those above `ratio` × the best.
+    // keeps only those at `ratio` × the best or above.
     sums
 }
 
@@ -484,10 +513,10 @@ mod tests {
             .map(|(k, &v)| (v, k))
             .fold((f64::MIN, 0), |m, x| if x.0 > m.0 { x } else { m });
         let axis = eig.eigenvectors.column(k);
-        // Flat along x over the ±1.5 m window: the second moment of a uniform spread over it,
-        // (2w + 1)² − 1) / 12 cells² ≈ 0.8 m² for w = 15 cells of 0.1 m.
+        // Flat along x over the ±1.5 m window: the second moment of a uniform spread over the
+        // 31 cells of 0.1 m it covers, 3.1² / 12 ≈ 0.8 m².
         assert!(axis.x.abs() > 0.99, "{axis}");
-        let uniform = (31.0f64 * 31.0 - 1.0) / 12.0 * 0.01;
+        let uniform = 3.1f64 * 3.1 / 12.0;
         assert!(
             (largest / uniform - 1.0).abs() < 0.1,
             "{largest} vs {uniform}"
@@ -583,6 +612,56 @@ mod tests {
             AmbiguityProblem::OffTheMap { got: 3, need: 10 }.to_string(),
             "3 source returns fall on the reference's grid at the result, at least 10 are needed"
         );
+    }
+
+    /// The pruned sums against every pose summed cell by cell: the same near-optimal poses
+    /// with the same sums, on scans with structure (a room, moved and turned) and without.
+    #[test]
+    fn pruning_keeps_every_near_optimal_pose() {
+        let walls = room();
+        let grid = grid_of(&walls);
+        let lattice = Lattice { w: 15, k: 2 };
+        let step_rad = 0.5f64.to_radians();
+        for (x, y, deg) in [(0.3, -0.2, 5.0), (1.1, 0.4, -20.0), (0.0, 0.0, 0.0)] {
+            let truth = Isometry2::new(Vector2::new(x, y), f64::to_radians(deg));
+            let source = seen_from(&walls, &truth);
+            let returns: Vec<(Point2<f64>, u32)> = source
+                .returns()
+                .iter()
+                .map(|r| (r.point, range_weight(r)))
+                .collect();
+            // A result off the truth, so that the best is not at the centre.
+            let result = truth * Isometry2::new(Vector2::new(0.35, -0.2), 0.01);
+            let pruned = lattice_sums(&grid, &returns, &result, &lattice, step_rad, 0.9);
+            let brute: Vec<u64> = (0..lattice.len())
+                .map(|i| {
+                    let [dx, dy, r] = lattice.offset(i);
+                    let pose = Isometry2::from_parts(
+                        result.translation,
+                        result.rotation * UnitComplex::new(f64::from(r) * step_rad),
+                    );
+                    returns
+                        .iter()
+                        .map(|&(p, w)| {
+                            let [i, j] = grid.cell_of(&(pose * p));
+                            u64::from(grid.value(0, [i + dx, j + dy])) * u64::from(w)
+                        })
+                        .sum()
+                })
+                .collect();
+            let best = *brute.iter().max().unwrap();
+            assert_eq!(*pruned.iter().max().unwrap(), best);
+            let floor = (0.9 * best as f64).ceil() as u64;
+            let near = |sums: &[u64]| -> Vec<(usize, u64)> {
+                sums.iter()
+                    .copied()
+                    .enumerate()
+                    .filter(|&(_, s)| s >= floor)
+                    .collect()
+            };
+            assert_eq!(near(&pruned), near(&brute), "{x} {y} {deg}");
+            assert!(!near(&brute).is_empty());
+        }
     }
 
     proptest! {
