@@ -175,24 +175,7 @@ mod tests {
     #[test]
     fn covered_is_chi_squared_3s_99_9_percent_point() {
         let x: f64 = COVERED_NEES;
-        let z = (x / 2.0).sqrt();
-        let n = 20_000;
-        let h = z / n as f64;
-        let integral: f64 = (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                let t = i as f64 * h;
-                w * (-t * t).exp()
-            })
-            .sum::<f64>()
-            * h
-            / 3.0;
+        let integral = crate::run::extended::simpson(|t| (-t * t).exp(), (x / 2.0).sqrt());
         let erf = 2.0 / std::f64::consts::PI.sqrt() * integral;
         let cdf = erf - (2.0 * x / std::f64::consts::PI).sqrt() * (-x / 2.0).exp();
         assert!((cdf - 0.999).abs() < 1e-9, "{cdf}");

@@ -125,6 +125,28 @@ pub fn added_terms(
     }
 }
 
+/// The integral of `f` over `[0, to]` by Simpson's rule on 20 000 intervals (for the tests of
+/// the quantiles here and in `measure`).
+#[cfg(test)]
+pub(crate) fn simpson(f: impl Fn(f64) -> f64, to: f64) -> f64 {
+    let n = 20_000;
+    let h = to / n as f64;
+    (0..=n)
+        .map(|i| {
+            let w = if i == 0 || i == n {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            w * f(i as f64 * h)
+        })
+        .sum::<f64>()
+        * h
+        / 3.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -156,22 +178,7 @@ mod tests {
         // χ²₇'s density, x^(5/2) e^(−x/2) / (2^(7/2) Γ(7/2)), Γ(7/2) = 15 √π / 8.
         let gamma = 15.0 * std::f64::consts::PI.sqrt() / 8.0;
         let density = |x: f64| x.powf(2.5) * (-x / 2.0).exp() / (2f64.powf(3.5) * gamma);
-        let n = 20_000;
-        let h = CHI2_7_Q95 / n as f64;
-        let simpson: f64 = (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                w * density(i as f64 * h)
-            })
-            .sum::<f64>()
-            * h
-            / 3.0;
+        let simpson = simpson(density, CHI2_7_Q95);
         assert!((simpson - 0.95).abs() < 1e-9, "{simpson}");
         assert!((SIGNIFICANT_RATIO - 2.00959).abs() < 1e-5);
     }

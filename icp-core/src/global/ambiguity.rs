@@ -457,6 +457,18 @@ mod tests {
         Scan::from_cartesian(&moved).unwrap()
     }
 
+    /// The ambiguity of `points` seen from `truth`, at `truth`, with the defaults.
+    fn at_truth(points: &[[f64; 2]], truth: &Isometry2<f64>) -> Ambiguity {
+        let source = seen_from(points, truth);
+        ambiguity(
+            &grid_of(points),
+            &source,
+            truth,
+            &AmbiguityParams::default(),
+        )
+        .unwrap()
+    }
+
     /// Two parallel walls along x, `half_width_m` either side, every 5 cm over ±`length_m`/2.
     fn corridor(length_m: f64, half_width_m: f64) -> Vec<[f64; 2]> {
         let n = (length_m / 0.05) as usize;
@@ -497,14 +509,7 @@ mod tests {
     fn along_a_pure_corridor_the_term_spans_its_axis() {
         let walls = corridor(60.0, 1.5);
         let truth = Isometry2::new(Vector2::new(0.4, 0.05), 0.0);
-        let source = seen_from(&walls, &truth);
-        let a = ambiguity(
-            &grid_of(&walls),
-            &source,
-            &truth,
-            &AmbiguityParams::default(),
-        )
-        .unwrap();
+        let a = at_truth(&walls, &truth);
         let eig = a.term.symmetric_eigen();
         let (largest, k) = eig
             .eigenvalues
@@ -533,14 +538,7 @@ mod tests {
     fn in_a_closed_room_the_term_is_zero() {
         let walls = room();
         let truth = Isometry2::new(Vector2::new(0.3, -0.2), 5f64.to_radians());
-        let source = seen_from(&walls, &truth);
-        let a = ambiguity(
-            &grid_of(&walls),
-            &source,
-            &truth,
-            &AmbiguityParams::default(),
-        )
-        .unwrap();
+        let a = at_truth(&walls, &truth);
         assert_eq!(a.term, Matrix3::zeros());
         assert!(a.extent_m <= 0.15, "{}", a.extent_m);
         assert_eq!(a.rival, None);
@@ -562,14 +560,7 @@ mod tests {
             })
             .collect();
         let truth = Isometry2::new(Vector2::new(0.2, 0.0), 0.0);
-        let source = seen_from(&posts, &truth);
-        let a = ambiguity(
-            &grid_of(&posts),
-            &source,
-            &truth,
-            &AmbiguityParams::default(),
-        )
-        .unwrap();
+        let a = at_truth(&posts, &truth);
         let rival = a.rival.expect("a second place a metre along");
         let apart = rival.t_ref_src.translation.vector - a.best.t_ref_src.translation.vector;
         assert!(
