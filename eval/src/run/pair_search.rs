@@ -3,7 +3,7 @@
 //! searches, the best pose when a start needs it (`--init global`), and the check of each
 //! result against it ([`GlobalCheck`]), the results of a pair's variants together.
 //!
-//! The same grid scores the poses around each result ([`Searched::ambiguity`]): the ambiguity
+//! The same grid scores the poses around each result (`Searched::ambiguity`): the ambiguity
 //! term of the extended covariance and the `ambiguous` flag.
 //!
 //! A check asks only the question the suspect rule asks: does a pose score more than the
