@@ -13,6 +13,11 @@
 //! it replaces (`search`), the grid alone (`grid`), and the check alone on a prepared source
 //! (`check-only`).
 //!
+//! The ambiguity of a result (`global/<data>-check/ambiguity`, issue 36): HD_GICP's result of
+//! each pair scored on the lattice around it on a grid built beforehand (what the extended
+//! covariance adds per registration, `icp_core::global::ambiguity`), beside HD_GICP's
+//! registration of the pair from the identity (`register`) for its scale.
+//!
 //! The aces log is looked for as `$ICP_DATA_DIR/carmen/aces.log.gz` or
 //! `$ICP_DATA_DIR/aces.log.gz` (a relative `ICP_DATA_DIR` from the workspace root), then in
 //! `../shared/datasets/carmen/` beside the workspace; without it the aces benchmarks are
@@ -27,6 +32,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use datasets::carmen::{load, CarmenOptions};
 use datasets::synthetic::{generate, Scenario};
 use eval::run::status::clearly_better;
+use icp_core::global::ambiguity::{ambiguity, AmbiguityParams};
 use icp_core::global::{
     score_at, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool, RotationMode,
 };
@@ -185,6 +191,33 @@ fn check(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
                     .expect("a source");
                 let result_score = score_at(matcher.grid(), &source.scan, result);
                 matcher.best_above(&mut prepared, |s| clearly_better(s, result_score));
+            }
+        })
+    });
+    let ambiguity_params = AmbiguityParams::default();
+    group.bench_function("ambiguity", |b| {
+        b.iter(|| {
+            for (((source, _), result), matcher) in pairs.iter().zip(&results).zip(&matchers) {
+                // A problem is an answer too: timed either way.
+                let _ = ambiguity(matcher.grid(), &source.scan, result, &ambiguity_params);
+            }
+        })
+    });
+    let reg = builtin("HD_GICP")
+        .expect("built in")
+        .build()
+        .expect("valid");
+    let mut registration = Workspace::default();
+    group.bench_function("register", |b| {
+        b.iter(|| {
+            for (source, reference) in pairs {
+                reg.register_prepared(
+                    &mut registration,
+                    source.prepared(),
+                    reference.prepared(),
+                    Isometry2::identity(),
+                )
+                .expect("a registration");
             }
         })
     });

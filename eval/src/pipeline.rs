@@ -30,6 +30,7 @@ pub fn evaluate(
         chain: &setup.init,
         global: &setup.global,
         check: setup.global_check == GlobalChecks::On,
+        ambiguity: setup.covariance.is_extended(),
     };
     let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
     progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);

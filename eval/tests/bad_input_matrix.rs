@@ -984,7 +984,7 @@ fn harness_flags_and_counts_a_pair_with_no_overlap() {
     assert_eq!(v.all_pairs.pairs, 4, "flagged pairs stay in the statistics");
     let table = eval::render::markdown::table_md(&report);
     assert!(
-        table.contains("| HD_ICP | 2 | 0 | 2 | 0 | 0 | 50.0 % |"),
+        table.contains("| HD_ICP | 2 | 0 | 2 | 0 | 0 | 0 | 50.0 % |"),
         "{table}"
     );
 }

@@ -83,6 +83,7 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
         chain: &chain,
         global: &GlobalParams::default(),
         check: false,
+        ambiguity: false,
     };
     let methods = Methods::registrars(&registrars);
     let progress = ProgressBar::hidden();

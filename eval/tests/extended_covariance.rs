@@ -55,6 +55,7 @@ fn monte_carlo(scenario: &Scenario) -> [(f64, f64); 3] {
                 ),
                 status: PairStatus::Ok,
                 check: None,
+                ambiguity: None,
                 init: None,
                 attempts: 1,
                 time_us: None,

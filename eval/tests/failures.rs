@@ -67,7 +67,7 @@ fn a_degenerate_scan_fails_its_pairs_without_stopping_the_run() {
     );
     let table = eval::render::markdown::table_md(&report);
     assert!(
-        table.contains("| HD_ICP | 3 | 2 | 0 | 0 | 0 | 40.0 % | 60.0 % |"),
+        table.contains("| HD_ICP | 3 | 2 | 0 | 0 | 0 | 0 | 40.0 % | 60.0 % |"),
         "{table}"
     );
 }

@@ -216,12 +216,13 @@ pub fn register(
     let result = py.detach(|| icp.register(&source, &reference, init));
     let mut inner = result.map_err(icp_error)?;
     // The covariance as the reports give it under their default mode (`extended`: the closed
-    // form, inflated where its model leaves noise out, widened to its jackknife).
+    // form, inflated where its model leaves noise out, widened to its jackknife). Without the
+    // ambiguity term and flag of a run: they need the pair's likelihood grid, not built here.
     let inflation = closed_form_inflation(&icp.spec().metric);
     inner.covariance = extended::of_registration(&inner, CovarianceMode::Extended, inflation);
     Ok(Registration {
         variant: spec.name,
-        status: PairStatus::of(&Ok(inner), None),
+        status: PairStatus::of(&Ok(inner), None, None),
         inner,
     })
 }

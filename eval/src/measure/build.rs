@@ -20,6 +20,7 @@ use crate::measure::report::*;
 use crate::measure::stats::{median_p95, Stats};
 use crate::measure::trajectory;
 use crate::run::covariance;
+use crate::run::extended;
 use crate::run::motion;
 use crate::run::runner::{PairRun, Runs};
 use crate::run::setup::{EvalSetup, OffsetChoice, ReferenceChecks};
@@ -161,7 +162,7 @@ pub fn build(
                 refs[i].and_then(|r| r.t_ref_src),
                 setup.covariance,
                 inflation,
-                motion_terms[i].as_ref(),
+                extended::added_terms(motion_terms[i], run, setup.covariance).as_ref(),
             );
             if let (Some(step), Some(truth)) = (&reference_step, refs[i].and_then(|r| r.t_ref_src))
             {
@@ -378,6 +379,7 @@ fn summarize(
         degenerate_pairs: flagged(rows, StatusKind::Degenerate),
         no_overlap_pairs: flagged(rows, StatusKind::NoOverlap),
         suspect_pairs: flagged(rows, StatusKind::Suspect),
+        ambiguous_pairs: flagged(rows, StatusKind::Ambiguous),
         inconsistent_pairs: flagged(rows, StatusKind::Inconsistent),
         trajectory: TrajectoryStats {
             heading_rms_error_deg: {

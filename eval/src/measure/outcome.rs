@@ -19,6 +19,10 @@ pub const WRONG_TRANS_M: f64 = 0.3;
 /// …or beyond this rotation error, degrees.
 pub const WRONG_ROT_DEG: f64 = 3.0;
 
+/// A wrong registration is covered by its covariance when the NEES of its pose error under
+/// it is at most this: χ²₃ at 99.9 %.
+pub const COVERED_NEES: f64 = 16.266_236_196_238_1;
+
 /// The pose errors of a registered row, where the reference is a rigid pose.
 fn errors(r: &PairRecord) -> Option<(f64, f64)> {
     Some((r.trans_err_m?, r.rot_err_deg?.abs()))
@@ -56,6 +60,13 @@ pub struct FlagQuality {
     pub wrong_flagged: usize,
     /// Flagged and not a success (beyond [`SUCCESS_TRANS_M`] or [`SUCCESS_ROT_DEG`]).
     pub flagged_not_success: usize,
+    /// Wrong and covered by the reported covariance (its NEES at most [`COVERED_NEES`]),
+    /// flagged or not.
+    #[serde(default)]
+    pub wrong_covered: usize,
+    /// Wrong, status `ok` and not covered: a confident wrong number that nothing warns of.
+    #[serde(default)]
+    pub silent: usize,
     /// Fraction of the wrong numbers that are flagged (`None` when none is wrong).
     pub recall: Option<f64>,
     /// Fraction of the flagged numbers that are not a success (`None` when none is flagged).
@@ -66,30 +77,35 @@ impl FlagQuality {
     /// The flags of `rows` (one variant's) against their rigid reference; `None` when no
     /// registered row has one.
     pub fn of(rows: &[PairRecord]) -> Option<Self> {
-        let judged: Vec<(bool, f64, f64)> = rows
+        let judged: Vec<Judged> = rows
             .iter()
             .filter(|r| r.status != StatusKind::Failed)
             .filter_map(|r| {
-                let (t, a) = errors(r)?;
-                Some((r.status != StatusKind::Ok, t, a))
+                let (trans_m, rot_deg) = errors(r)?;
+                Some(Judged {
+                    flagged: r.status != StatusKind::Ok,
+                    trans_m,
+                    rot_deg,
+                    nees: r.nees,
+                })
             })
             .collect();
         Self::of_judged(&judged)
     }
 
-    /// From `(flagged, translation error m, |rotation error| degrees)` per registration.
-    fn of_judged(judged: &[(bool, f64, f64)]) -> Option<Self> {
+    /// From the judged registrations.
+    fn of_judged(judged: &[Judged]) -> Option<Self> {
         if judged.is_empty() {
             return None;
         }
-        let wrong = |&(_, t, a): &(bool, f64, f64)| t > WRONG_TRANS_M || a > WRONG_ROT_DEG;
-        let not_success =
-            |&(_, t, a): &(bool, f64, f64)| t > SUCCESS_TRANS_M || a > SUCCESS_ROT_DEG;
-        let count = |f: &dyn Fn(&(bool, f64, f64)) -> bool| judged.iter().filter(|j| f(j)).count();
+        let wrong = |j: &Judged| j.trans_m > WRONG_TRANS_M || j.rot_deg > WRONG_ROT_DEG;
+        let not_success = |j: &Judged| j.trans_m > SUCCESS_TRANS_M || j.rot_deg > SUCCESS_ROT_DEG;
+        let covered = |j: &Judged| j.nees.is_some_and(|n| n <= COVERED_NEES);
+        let count = |f: &dyn Fn(&Judged) -> bool| judged.iter().filter(|j| f(j)).count();
         let n_wrong = count(&wrong);
-        let flagged = count(&|j| j.0);
-        let wrong_flagged = count(&|j| j.0 && wrong(j));
-        let flagged_not_success = count(&|j| j.0 && not_success(j));
+        let flagged = count(&|j| j.flagged);
+        let wrong_flagged = count(&|j| j.flagged && wrong(j));
+        let flagged_not_success = count(&|j| j.flagged && not_success(j));
         let ratio = |n: usize, of: usize| (of > 0).then(|| n as f64 / of as f64);
         Some(Self {
             pairs: judged.len(),
@@ -97,35 +113,71 @@ impl FlagQuality {
             flagged,
             wrong_flagged,
             flagged_not_success,
+            wrong_covered: count(&|j| wrong(j) && covered(j)),
+            silent: count(&|j| wrong(j) && !j.flagged && !covered(j)),
             recall: ratio(wrong_flagged, n_wrong),
             precision: ratio(flagged_not_success, flagged),
         })
     }
 }
 
+/// One registration as [`FlagQuality`] judges it.
+#[derive(Clone, Copy, Debug)]
+struct Judged {
+    flagged: bool,
+    /// Translation error, m.
+    trans_m: f64,
+    /// |Rotation error|, degrees.
+    rot_deg: f64,
+    /// NEES of the pose error under the reported covariance, where there is one.
+    nees: Option<f64>,
+}
+
 #[cfg(test)]
 mod tests {
-    use super::FlagQuality;
+    use super::*;
 
     #[test]
-    fn recall_and_precision_by_hand() {
-        // Wrong: rows 0 (0.5 m), 1 (5°), 2 (0.31 m). Flagged: 0, 1, 3 (0.2 m: not a success,
-        // not wrong) and 4 (0.05 m, 0.5°: a success, a false alarm).
+    fn recall_precision_and_silence_by_hand() {
+        // Wrong: rows 0 (0.5 m), 1 (5°), 2 (0.31 m), 6 (0.8 m, covered: NEES 16) and 7 (0.4 m,
+        // NEES 17: not covered, silent). Flagged: 0, 1, 3 (0.2 m: not a success, not wrong) and
+        // 4 (0.05 m, 0.5°: a success, a false alarm).
+        let j = |flagged, trans_m, rot_deg, nees| Judged {
+            flagged,
+            trans_m,
+            rot_deg,
+            nees,
+        };
         let judged = [
-            (true, 0.5, 0.0),
-            (true, 0.0, 5.0),
-            (false, 0.31, 0.0),
-            (true, 0.2, 0.0),
-            (true, 0.05, 0.5),
-            (false, 0.01, 0.1),
+            j(true, 0.5, 0.0, Some(3.0)),
+            j(true, 0.0, 5.0, None),
+            j(false, 0.31, 0.0, None),
+            j(true, 0.2, 0.0, Some(100.0)),
+            j(true, 0.05, 0.5, Some(1.0)),
+            j(false, 0.01, 0.1, Some(1.0)),
+            j(false, 0.8, 0.0, Some(16.0)),
+            j(false, 0.4, 0.0, Some(17.0)),
         ];
         let q = FlagQuality::of_judged(&judged).unwrap();
-        assert_eq!((q.pairs, q.wrong, q.flagged), (6, 3, 4));
+        assert_eq!((q.pairs, q.wrong, q.flagged), (8, 5, 4));
         assert_eq!((q.wrong_flagged, q.flagged_not_success), (2, 3));
-        assert_eq!(q.recall, Some(2.0 / 3.0));
+        // Covered: rows 0 and 6; silent: 2 (no covariance) and 7.
+        assert_eq!((q.wrong_covered, q.silent), (2, 2));
+        assert_eq!(q.recall, Some(2.0 / 5.0));
         assert_eq!(q.precision, Some(3.0 / 4.0));
         assert_eq!(FlagQuality::of_judged(&[]), None);
-        let none_wrong = FlagQuality::of_judged(&[(false, 0.0, 0.0)]).unwrap();
+        let none_wrong = FlagQuality::of_judged(&[j(false, 0.0, 0.0, None)]).unwrap();
         assert_eq!((none_wrong.recall, none_wrong.precision), (None, None));
+    }
+
+    /// [`COVERED_NEES`] is χ²₃'s 99.9 % point: the closed-form distribution function
+    /// `erf(√(x/2)) − √(2x/π) e^(−x/2)`, its erf by Simpson's rule, reaches 0.999 there.
+    #[test]
+    fn covered_is_chi_squared_3s_99_9_percent_point() {
+        let x: f64 = COVERED_NEES;
+        let integral = crate::run::extended::simpson(|t| (-t * t).exp(), (x / 2.0).sqrt());
+        let erf = 2.0 / std::f64::consts::PI.sqrt() * integral;
+        let cdf = erf - (2.0 * x / std::f64::consts::PI).sqrt() * (-x / 2.0).exp();
+        assert!((cdf - 0.999).abs() < 1e-9, "{cdf}");
     }
 }

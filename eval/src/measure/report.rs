@@ -114,6 +114,11 @@ pub struct VariantSummary {
     /// their numbers stay in the statistics).
     #[serde(default)]
     pub suspect_pairs: Vec<usize>,
+    /// Pairs registered but flagged ambiguous: two distinct poses score nearly alike on the
+    /// reference's likelihood grid, or it cannot say where the scans fit (failures of the
+    /// variant; their numbers stay in the statistics).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub ambiguous_pairs: Vec<usize>,
     /// Pairs registered but flagged inconsistent by the loops across lags (`--lags`; failures
     /// of the variant; their numbers stay in the statistics).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

@@ -20,7 +20,8 @@ pub enum CovarianceMode {
     /// Re-registration under resampled sensor noise and start (every variant).
     Sampled,
     /// The closed form lifted to the grouped jackknife of its pairs over angular sectors
-    /// where the jackknife is significantly larger (the `extended` module).
+    /// where the jackknife is significantly larger, plus the ambiguity term (the `extended`
+    /// module).
     Extended,
     /// [`CovarianceMode::Extended`] plus the spread of re-registrations from six perturbed
     /// starts (the `restarts` module).
@@ -46,7 +47,7 @@ pub const MODES: [(CovarianceMode, &str, &str); 5] = [
     (
         CovarianceMode::Extended,
         "extended",
-        "the closed form, lifted direction by direction to the jackknife of its pairs over 45° sectors where that is significantly larger: holds beyond the sensor model (point-to-line and GICP; the default)",
+        "the closed form, lifted direction by direction to the jackknife of its pairs over 45° sectors where that is significantly larger, plus the spread of the poses the pair's likelihood grid scores almost as well where the registration is weakly conditioned: holds beyond the sensor model and where the scene repeats (point-to-line and GICP; the default)",
     ),
     (
         CovarianceMode::Restarts,

@@ -42,6 +42,7 @@ use icp_core::{Covariance, Registration};
 use nalgebra::Matrix3;
 
 use crate::run::covariance::{reported, CovarianceMode};
+use crate::run::runner::PairRun;
 
 /// The variance ratio above which the jackknife's excess over the closed form along a
 /// direction is taken as real: χ²₇(0.95)/7, the 95 % quantile of a variance estimate with
@@ -99,6 +100,53 @@ pub fn of_registration(
     }
 }
 
+/// The ambiguity term of `run` (`icp_core::global::ambiguity`: the spread of the poses the
+/// reference's likelihood grid scores almost as well as the result, zero where they all lie
+/// within its peak), where it was assessed (a weakly conditioned registration:
+/// [`crate::run::pair_search::WEAK_CONDITIONING`]).
+pub fn ambiguity_term(run: &PairRun) -> Option<Matrix3<f64>> {
+    Some(run.ambiguity.as_ref()?.as_ref().ok()?.term)
+}
+
+/// What the extended modes add to a registration's covariance besides the lift: the `motion`
+/// term (`crate::run::motion`) and [`ambiguity_term`]; `None` when neither applies (or
+/// `mode` is not an extended one).
+pub fn added_terms(
+    motion: Option<Matrix3<f64>>,
+    run: &PairRun,
+    mode: CovarianceMode,
+) -> Option<Matrix3<f64>> {
+    if !mode.is_extended() {
+        return None;
+    }
+    match (motion, ambiguity_term(run)) {
+        (Some(m), Some(t)) => Some(m + t),
+        (m, t) => m.or(t),
+    }
+}
+
+/// The integral of `f` over `[0, to]` by Simpson's rule on 20 000 intervals (for the tests of
+/// the quantiles here and in `measure`).
+#[cfg(test)]
+pub(crate) fn simpson(f: impl Fn(f64) -> f64, to: f64) -> f64 {
+    let n = 20_000;
+    let h = to / n as f64;
+    (0..=n)
+        .map(|i| {
+            let w = if i == 0 || i == n {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            w * f(i as f64 * h)
+        })
+        .sum::<f64>()
+        * h
+        / 3.0
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -130,22 +178,7 @@ mod tests {
         // χ²₇'s density, x^(5/2) e^(−x/2) / (2^(7/2) Γ(7/2)), Γ(7/2) = 15 √π / 8.
         let gamma = 15.0 * std::f64::consts::PI.sqrt() / 8.0;
         let density = |x: f64| x.powf(2.5) * (-x / 2.0).exp() / (2f64.powf(3.5) * gamma);
-        let n = 20_000;
-        let h = CHI2_7_Q95 / n as f64;
-        let simpson: f64 = (0..=n)
-            .map(|i| {
-                let w = if i == 0 || i == n {
-                    1.0
-                } else if i % 2 == 1 {
-                    4.0
-                } else {
-                    2.0
-                };
-                w * density(i as f64 * h)
-            })
-            .sum::<f64>()
-            * h
-            / 3.0;
+        let simpson = simpson(density, CHI2_7_Q95);
         assert!((simpson - 0.95).abs() < 1e-9, "{simpson}");
         assert!((SIGNIFICANT_RATIO - 2.00959).abs() < 1e-5);
     }

@@ -122,6 +122,7 @@ mod tests {
             }),
             status: PairStatus::Ok,
             check: None,
+            ambiguity: None,
             init: None,
             attempts: 1,
             time_us: None,

@@ -13,6 +13,7 @@ use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
+use icp_core::global::ambiguity::{Ambiguity, AmbiguityProblem};
 use icp_core::global::{GlobalGuess, GlobalParams, GlobalWorkspace, GridPool};
 use icp_core::{IcpError, Prepared, Registrar, Registration, SurfaceParams, Surfaces, Workspace};
 use indicatif::ProgressBar;
@@ -40,6 +41,12 @@ pub struct PairRun {
     pub status: PairStatus,
     /// What the pair's global search says about the result, when results are checked.
     pub check: Option<GlobalCheck>,
+    /// The poses around the result that the pair's likelihood grid scores almost as well
+    /// (`icp_core::global::ambiguity`), under the extended covariance modes: the ambiguity
+    /// term of the covariance, or why it cannot be assessed (`None`: not asked, no grid, or
+    /// no registration).
+    #[serde(default)]
+    pub ambiguity: Option<Result<Ambiguity, AmbiguityProblem>>,
     /// The initial-guess mode whose start gave the result kept (`None`: an external
     /// estimate, not started here).
     pub init: Option<InitMode>,
@@ -88,12 +95,15 @@ pub struct RunPlan<'a> {
     pub global: &'a GlobalParams,
     /// Whether every result is checked against the pair's global search.
     pub check: bool,
+    /// Whether every result's ambiguity is assessed on the pair's likelihood grid (the
+    /// extended covariance modes' term, and the `ambiguous` flag).
+    pub ambiguity: bool,
 }
 
 impl RunPlan<'_> {
     /// True when each pair needs its global search.
     fn searches(&self) -> bool {
-        self.check || self.chain.global()
+        self.check || self.ambiguity || self.chain.global()
     }
 }
 
@@ -380,10 +390,12 @@ impl BlockJob<'_> {
             let registrations: Vec<_> = results.iter().map(|(r, _)| r).collect();
             let checks = self.checks(&registrations, searched, pair);
             for ((&v, (result, used)), check) in pending.iter().zip(results).zip(checks) {
+                let ambiguity = self.ambiguity(&result, searched, pair);
                 kept[v] = Some(PairRun {
-                    status: PairStatus::of(&result, check.as_ref()),
+                    status: PairStatus::of(&result, check.as_ref(), ambiguity.as_ref()),
                     result,
                     check,
+                    ambiguity,
                     init: Some(used),
                     attempts: attempt + 1,
                     time_us: Some(time_us[v]),
@@ -419,6 +431,22 @@ impl BlockJob<'_> {
             .collect()
     }
 
+    /// The ambiguity of `result` of `pair` on the pair's likelihood grid, when the plan asks
+    /// for it, the grid was built and the result is weakly conditioned ([`Searched::ambiguity`];
+    /// `None` for a failed registration).
+    fn ambiguity(
+        &self,
+        result: &Result<Registration, IcpError>,
+        searched: Option<&Searched>,
+        pair: ScanPair,
+    ) -> Option<Result<Ambiguity, AmbiguityProblem>> {
+        let (reg, searched) = (result.as_ref().ok()?, searched?);
+        if !self.plan.ambiguity {
+            return None;
+        }
+        searched.ambiguity(reg, &self.ds.scans[pair.source])
+    }
+
     /// The external estimate of the pair at `position` in the run, assessed at its pose and
     /// checked as a registration is; a pair the file has no estimate for is a failure of
     /// the estimator.
@@ -445,10 +473,12 @@ impl BlockJob<'_> {
             }),
         };
         let check = self.checks(&[&result], searched, pair).remove(0);
+        let ambiguity = self.ambiguity(&result, searched, pair);
         PairRun {
-            status: PairStatus::of(&result, check.as_ref()),
+            status: PairStatus::of(&result, check.as_ref(), ambiguity.as_ref()),
             result,
             check,
+            ambiguity,
             init: None,
             attempts: 0,
             time_us: None,
@@ -728,6 +758,7 @@ mod tests {
             chain: &chain,
             global: &GlobalParams::default(),
             check: true,
+            ambiguity: true,
         };
         let methods = Methods::registrars(&registrars);
         let whole = run_blocks(&ds, &pairs, methods, &plan, &progress, BLOCK_PAIRS, 0);

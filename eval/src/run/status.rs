@@ -8,6 +8,7 @@
 
 use std::fmt;
 
+use icp_core::global::ambiguity::{Ambiguity, AmbiguityProblem, ScoredPose};
 use icp_core::quality::{DEGENERATE_RATIO, MIN_OVERLAP, OVERLAP_GATE_M};
 use icp_core::{IcpError, Registration};
 use nalgebra::Isometry2;
@@ -35,6 +36,13 @@ pub enum PairStatus {
     Suspect {
         /// What the global search saw.
         check: GlobalCheck,
+    },
+    /// Registered, but the scans fit in two distinct places that score nearly alike on the
+    /// reference's likelihood grid, or the grid cannot tell where they fit (see
+    /// [`AmbiguityFlag`]).
+    Ambiguous {
+        /// Why.
+        why: AmbiguityFlag,
     },
     /// Registered, but no trusted loop through its neighbours across lag 2 closes
     /// (`--lags`): it is more than 0.3 m or 3° from every alternative whose registrations are
@@ -72,6 +80,8 @@ pub enum StatusKind {
     NoOverlap,
     /// See [`PairStatus::Suspect`].
     Suspect,
+    /// See [`PairStatus::Ambiguous`].
+    Ambiguous,
     /// See [`PairStatus::Inconsistent`].
     Inconsistent,
     /// See [`PairStatus::Failed`].
@@ -81,8 +91,13 @@ pub enum StatusKind {
 impl PairStatus {
     /// The verdict on `result`: a failure first, then no overlap (a registration of scans
     /// that do not see the same surfaces means nothing, however well conditioned), then
-    /// degenerate, then suspect when a global search's `check` says so.
-    pub fn of(result: &Result<Registration, IcpError>, check: Option<&GlobalCheck>) -> Self {
+    /// degenerate, then suspect when a global search's `check` says so, then ambiguous when
+    /// its `ambiguity` says so ([`AmbiguityFlag::of`]).
+    pub fn of(
+        result: &Result<Registration, IcpError>,
+        check: Option<&GlobalCheck>,
+        ambiguity: Option<&Result<Ambiguity, AmbiguityProblem>>,
+    ) -> Self {
         match result {
             Err(error) => Self::Failed {
                 error: error.clone(),
@@ -93,7 +108,10 @@ impl PairStatus {
                     cond_ratio: c.ratio,
                 },
                 (_, Some(check)) if check.suspect() => Self::Suspect { check: *check },
-                _ => Self::Ok,
+                _ => match ambiguity.and_then(AmbiguityFlag::of) {
+                    Some(why) => Self::Ambiguous { why },
+                    None => Self::Ok,
+                },
             },
         }
     }
@@ -105,6 +123,7 @@ impl PairStatus {
             Self::Degenerate { .. } => StatusKind::Degenerate,
             Self::NoOverlap { .. } => StatusKind::NoOverlap,
             Self::Suspect { .. } => StatusKind::Suspect,
+            Self::Ambiguous { .. } => StatusKind::Ambiguous,
             Self::Inconsistent { .. } => StatusKind::Inconsistent,
             Self::Failed { .. } => StatusKind::Failed,
         }
@@ -141,6 +160,7 @@ impl fmt::Display for PairStatus {
                     check.best_score, check.result_score
                 )
             }
+            Self::Ambiguous { why } => write!(f, "{why}"),
             Self::Inconsistent {
                 apart_m,
                 apart_deg,
@@ -160,6 +180,66 @@ impl fmt::Display for PairStatus {
                 "{apart_m:.2} m and {apart_deg:.1}° from the one trusted loop through its neighbours across lag 2 (the other's registrations are flagged or missing)"
             ),
             Self::Failed { error } => write!(f, "{error}"),
+        }
+    }
+}
+
+/// Why a registration is flagged ambiguous.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum AmbiguityFlag {
+    /// Two distinct poses around the result score nearly alike on the reference's likelihood
+    /// grid (`icp_core::global::ambiguity`): the best and the best of a second, separate group.
+    TwoPoses {
+        /// The window's best pose.
+        best: ScoredPose,
+        /// The best pose of the second group.
+        rival: ScoredPose,
+    },
+    /// The grid cannot say where the scans fit: too few returns, off the map, a flat score.
+    Unassessed {
+        /// The problem.
+        problem: AmbiguityProblem,
+    },
+}
+
+impl AmbiguityFlag {
+    /// The flag `ambiguity` raises, if any.
+    pub fn of(ambiguity: &Result<Ambiguity, AmbiguityProblem>) -> Option<Self> {
+        match ambiguity {
+            Ok(a) => a.rival.map(|rival| Self::TwoPoses {
+                best: a.best,
+                rival,
+            }),
+            Err(problem) => Some(Self::Unassessed {
+                problem: problem.clone(),
+            }),
+        }
+    }
+}
+
+/// `(x m, y m, θ°)` of a pose and its score, for a reason.
+fn pose_text(p: &ScoredPose) -> String {
+    let t = p.t_ref_src.translation.vector;
+    format!(
+        "({:.2} m, {:.2} m, {:.1}°) scoring {:.3}",
+        t.x,
+        t.y,
+        p.t_ref_src.rotation.angle().to_degrees(),
+        p.score
+    )
+}
+
+impl fmt::Display for AmbiguityFlag {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::TwoPoses { best, rival } => write!(
+                f,
+                "two distinct poses {:.2} m apart score nearly alike on the reference's likelihood grid: {} and {}",
+                (rival.t_ref_src.translation.vector - best.t_ref_src.translation.vector).norm(),
+                pose_text(best),
+                pose_text(rival)
+            ),
+            Self::Unassessed { problem } => write!(f, "ambiguity not assessed: {problem}"),
         }
     }
 }

@@ -649,6 +649,7 @@ pub fn run_shard(
                     chain: &setup.init,
                     global: &setup.global,
                     check: setup.global_check == GlobalChecks::On,
+                    ambiguity: setup.covariance.is_extended(),
                 };
                 let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
                 let (runs, lagged) = match plan.runs[slice.run].cut {

@@ -116,7 +116,7 @@ pub fn run_pairs(
                         Prepared::new(&ds.scans[pair.reference], r),
                         start,
                     );
-                    let status = PairStatus::of(&result, None);
+                    let status = PairStatus::of(&result, None, None);
                     let errors = result.ok().map(|r| {
                         let t = &r.t_ref_src;
                         (

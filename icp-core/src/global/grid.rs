@@ -300,6 +300,11 @@ impl LikelihoodGrid {
         self.levels.len() as u32 - 1
     }
 
+    /// Offsets either side of a lookup's cell that the padding allows, cells.
+    pub(crate) fn window_cells(&self) -> i32 {
+        self.window
+    }
+
     /// Cells along x and y of level 0.
     pub fn size(&self) -> (usize, usize) {
         (self.nx as usize, self.ny as usize)

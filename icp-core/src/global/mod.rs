@@ -5,6 +5,8 @@
 //! start within its basin when the motion between the scans is too large for a start at the
 //! identity.
 //!
+//! * [`ambiguity`]: the poses around a result that score almost as well (Olson 2009's
+//!   correlative covariance), and the pairs that fit in two distinct places.
 //! * [`grid`]: the likelihood grid of the reference (Olson 2009, "Real-time correlative scan
 //!   matching", ICRA) and its max-pooled pyramid (Hess et al. 2016, "Real-time loop closure in
 //!   2D LIDAR SLAM", ICRA).
@@ -71,6 +73,7 @@
 //! # Ok::<(), icp_core::IcpError>(())
 //! ```
 
+pub mod ambiguity;
 mod check;
 pub mod grid;
 mod histogram;

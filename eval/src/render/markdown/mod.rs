@@ -213,13 +213,44 @@ fn trajectory_errors_md(out: &mut String, report: &RunReport) {
     }
 }
 
+/// What became of each variant's badly wrong registrations: flagged, covered by their
+/// covariance, or silent (the issue-36 table).
+fn wrong_md(out: &mut String, report: &RunReport) {
+    use crate::measure::outcome::{COVERED_NEES, WRONG_ROT_DEG, WRONG_TRANS_M};
+    let _ = writeln!(
+        out,
+        "\nThe badly wrong registrations (> {WRONG_TRANS_M} m or {WRONG_ROT_DEG}° from the reference): flagged, covered by the reported covariance (the NEES of the error ≤ {COVERED_NEES:.2}, χ²₃ at 99.9 %; flagged or not), and silent (status `ok` and not covered: a confident wrong number nothing warns of). A flag is right when its pair is not a success.\n"
+    );
+    let _ = writeln!(
+        out,
+        "| method | judged | badly wrong | flagged | covered | silent | flags' precision |"
+    );
+    let _ = writeln!(out, "| --- | ---: | ---: | ---: | ---: | ---: | ---: |");
+    for v in &report.variants {
+        let Some(q) = v.flag_quality else {
+            continue;
+        };
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {} | {} | {} | {} |",
+            v.name,
+            q.pairs,
+            q.wrong,
+            q.wrong_flagged,
+            q.wrong_covered,
+            q.silent,
+            cell(q.precision, 2)
+        );
+    }
+}
+
 /// The failures and flags of each variant, and how the flags fare against a rigid reference.
 fn failures_md(out: &mut String, report: &RunReport) {
     let d = &report.dataset;
     let _ = writeln!(out, "\n## Failures and flags\n");
     let _ = writeln!(
         out,
-        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect (a global search of the pair finds a pose more than {} m or {}° away scoring {} more on the reference's likelihood grid; {}). Skipped pairs: {}.\n",
+        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect (a global search of the pair finds a pose more than {} m or {}° away scoring {} more on the reference's likelihood grid; {}), ambiguous (two distinct poses around the result score nearly alike on that grid, or it cannot say where the scans fit; under the extended covariance modes). Skipped pairs: {}.\n",
         icp_core::quality::DEGENERATE_RATIO,
         100.0 * icp_core::quality::MIN_OVERLAP,
         icp_core::quality::OVERLAP_GATE_M,
@@ -250,11 +281,11 @@ fn failures_md(out: &mut String, report: &RunReport) {
     };
     let _ = writeln!(
         out,
-        "| method | ok | failed | no overlap | degenerate | suspect | failure rate |{judged}"
+        "| method | ok | failed | no overlap | degenerate | suspect | ambiguous | failure rate |{judged}"
     );
     let _ = writeln!(
         out,
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |{}",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |{}",
         if rigid { " ---: | ---: | ---: |" } else { "" }
     );
     let percent =
@@ -273,15 +304,19 @@ fn failures_md(out: &mut String, report: &RunReport) {
         };
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {} | {} | {} |{judged}",
+            "| {} | {} | {} | {} | {} | {} | {} | {} |{judged}",
             v.name,
             v.pairs_ok,
             v.failures.len(),
             v.no_overlap_pairs.len(),
             v.degenerate_pairs.len(),
             v.suspect_pairs.len(),
+            v.ambiguous_pairs.len(),
             percent(Some(v.failure_rate)),
         );
+    }
+    if rigid {
+        wrong_md(out, report);
     }
     let _ = writeln!(out);
     for v in &report.variants {
@@ -289,6 +324,7 @@ fn failures_md(out: &mut String, report: &RunReport) {
             ("degenerate", &v.degenerate_pairs),
             ("without overlap", &v.no_overlap_pairs),
             ("suspect", &v.suspect_pairs),
+            ("ambiguous", &v.ambiguous_pairs),
         ] {
             if !pairs.is_empty() {
                 let _ = writeln!(out, "- {} {flag} on pairs {pairs:?}", v.name);
