@@ -17,9 +17,11 @@ fn tmp(name: &str) -> PathBuf {
 
 #[test]
 fn written_and_read_back_bit_for_bit() {
-    for scenario in [Scenario::paper(), Scenario::rough()] {
+    // The rough harbour's first boat lies still for its first 13.3 s (66 scans): its returns
+    // are labelled moving from then on.
+    for (scenario, n_scans) in [(Scenario::paper(), 8), (Scenario::rough(), 70)] {
         round_trip(Scenario {
-            n_scans: 8,
+            n_scans,
             ..scenario
         });
     }

@@ -10,6 +10,7 @@ use crate::measure::cycles;
 use crate::measure::report::RunReport;
 use crate::run::covariance::CovarianceMode;
 use crate::run::lags::{self, LagRuns};
+use crate::run::moving;
 use crate::run::restarts;
 use crate::run::runner::{self, Runs};
 use crate::run::sampled;
@@ -35,7 +36,8 @@ pub fn evaluate(
     let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
     progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
-    let lagged = lags::run(ds, lag_pairs, setup.lags, methods, &plan, progress);
+    let mut lagged = lags::run(ds, lag_pairs, setup.lags, methods, &plan, progress);
+    moving::apply(ds, &pairs, methods.registrars, &mut runs, lagged.as_mut());
     if setup.covariance == CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }

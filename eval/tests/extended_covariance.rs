@@ -59,6 +59,7 @@ fn monte_carlo(scenario: &Scenario) -> [(f64, f64); 3] {
                 init: None,
                 attempts: 1,
                 time_us: None,
+                left_out: None,
             })
             .collect();
         let dts: Vec<f64> = pairs.iter().map(|p| ds.pair_dt_s(*p)).collect();

@@ -397,7 +397,18 @@ fn part_without_timing(path: &Path) -> Vec<u8> {
 #[test]
 fn re_running_a_shard_rewrites_the_same_part() {
     let dir = common::scratch_dir("shard_again");
-    let mut base: Vec<&str> = RUN.to_vec();
+    // Variants without a detector of moving returns: the pair cut (PL_ICP's detector gives
+    // each shard whole variants).
+    let mut base: Vec<&str> = RUN
+        .iter()
+        .map(|&a| {
+            if a == "K_ICP,HD_ICP,PL_ICP" {
+                "K_ICP,HD_ICP"
+            } else {
+                a
+            }
+        })
+        .collect();
     base.extend(["--init", "global", "--lags", "2"]);
     let part_dir = &shard_dirs(&base, 3, &dir)[1];
     let file = Path::new(part_dir).join("part-1-of-3.cbor");

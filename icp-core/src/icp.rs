@@ -6,6 +6,7 @@ use crate::error::{ConfigError, ScanRole};
 use crate::matching::{Correspondence, Matcher};
 use crate::metric::Metric;
 use crate::minimize::Minimizer;
+use crate::moving::MovingReturns;
 use crate::pairs::PairSet;
 use crate::quality::{conditioning, overlap};
 use crate::registration::{check_init, Prepared, Registrar, Registration};
@@ -35,6 +36,7 @@ pub struct Icp {
     pub(crate) robust: Box<dyn RobustKernel>,
     pub(crate) minimizer: Box<dyn Minimizer>,
     pub(crate) termination: Termination,
+    pub(crate) moving: Box<dyn MovingReturns>,
     /// Whether a registration also computes the grouped jackknife of its covariance (see
     /// [`Registrar::set_jackknife`]).
     pub(crate) jackknife: bool,
@@ -134,7 +136,12 @@ impl Registrar for Icp {
             minimizer: Some(self.minimizer.spec()),
             sensor: self.sensor,
             termination: self.termination,
+            moving: self.moving.spec(),
         }
+    }
+
+    fn moving(&self) -> Option<&dyn MovingReturns> {
+        (self.moving.lag_scans() > 0).then_some(self.moving.as_ref())
     }
 
     fn surface_params(&self) -> SurfaceParams {

@@ -56,6 +56,7 @@ pub mod matching;
 pub mod metric;
 pub mod minimize;
 pub mod motion;
+pub mod moving;
 pub mod pairs;
 pub mod quality;
 pub mod registration;

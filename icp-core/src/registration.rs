@@ -5,6 +5,7 @@ use nalgebra::Isometry2;
 
 use crate::covariance::Covariance;
 use crate::error::ScanRole;
+use crate::moving::MovingReturns;
 use crate::quality::{Conditioning, MIN_OVERLAP};
 use crate::spec::VariantSpec;
 use crate::surface::{SurfaceParams, Surfaces};
@@ -113,6 +114,12 @@ pub trait Registrar: Send + Sync {
 
     /// How the surface estimates this method takes are made.
     fn surface_params(&self) -> SurfaceParams;
+
+    /// The detector of moving returns a harness runs over the sequence before registering
+    /// each pair again without them ([`crate::moving`]); `None`: every return is kept.
+    fn moving(&self) -> Option<&dyn MovingReturns> {
+        None
+    }
 
     /// Whether its registrations also compute the grouped jackknife of their covariance
     /// ([`Registration::jackknife_covariance`]; on unless turned off): a caller that uses the

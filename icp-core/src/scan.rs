@@ -208,6 +208,29 @@ impl Scan {
     pub fn timestamp_s(&self) -> Option<f64> {
         self.timestamp_s
     }
+
+    /// The scan without the returns where `left_out` is true (aligned with
+    /// [`Scan::returns`]; missing entries keep their return): its truth, timestamp and count
+    /// of no-returns kept. What a registration sees once a stage has left returns out
+    /// ([`crate::moving`]).
+    pub fn without(&self, left_out: &[bool]) -> Scan {
+        Scan {
+            returns: kept(&self.returns, left_out),
+            true_normals: kept(&self.true_normals, left_out),
+            moving: kept(&self.moving, left_out),
+            timestamp_s: self.timestamp_s,
+            no_returns: self.no_returns,
+        }
+    }
+}
+
+/// The entries of `v` whose index is not marked in `left_out` (an index beyond it is kept).
+fn kept<T: Copy>(v: &[T], left_out: &[bool]) -> Vec<T> {
+    v.iter()
+        .enumerate()
+        .filter(|&(i, _)| !left_out.get(i).copied().unwrap_or(false))
+        .map(|(_, x)| *x)
+        .collect()
 }
 
 /// What a data generator knows about each reading of a scan beyond its range and bearing, one
@@ -495,6 +518,23 @@ mod tests {
             .to_string(),
             "zero-length true normal at index 2"
         );
+    }
+
+    #[test]
+    fn without_drops_the_marked_returns_and_their_truth() {
+        let scan = Scan::from_polar(&[1.0, 2.0, 3.0], &[0.0, 0.5, 1.0])
+            .unwrap()
+            .with_timestamp(4.0)
+            .unwrap();
+        let kept = scan.without(&[false, true]);
+        assert_eq!(kept.len(), 2);
+        assert_eq!(
+            kept.returns()[1].range_m,
+            3.0,
+            "an index beyond the mask is kept"
+        );
+        assert_eq!(kept.timestamp_s(), Some(4.0));
+        assert!(scan.without(&[true, true, true]).is_empty());
     }
 
     #[test]

@@ -44,6 +44,10 @@ pub struct VariantSpec {
     /// Convergence rule (Alg. 1 step 6).
     #[serde(default)]
     pub termination: Termination,
+    /// Returns that move against the scene, found over the sequence and left out of a second
+    /// registration (beyond Alg. 1, see [`crate::moving`]); `none` by default.
+    #[serde(default = "default_moving")]
+    pub moving: StageSpec,
 }
 
 /// `Ok` when `name` can name a variant's files (`trajectory_<name>.tum`): letters, digits and
@@ -68,6 +72,10 @@ pub fn check_name(name: &str) -> Result<(), ConfigError> {
         return bad("only letters, digits and _ - + . (it names the run's files)");
     }
     Ok(())
+}
+
+fn default_moving() -> StageSpec {
+    StageSpec::kind("none")
 }
 
 fn default_selection() -> StageSpec {

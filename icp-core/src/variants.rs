@@ -23,6 +23,7 @@ use crate::icp::Icp;
 use crate::matching::MATCHERS;
 use crate::metric::METRICS;
 use crate::minimize::MINIMIZERS;
+use crate::moving::MOVING;
 use crate::registry::{param_docs, BuildContext, FamilyDoc, ParamError, SectionDoc, StageSpec};
 use crate::robust::ROBUST_KERNELS;
 use crate::select::SELECTIONS;
@@ -78,6 +79,7 @@ impl VariantSpec {
             robust: ROBUST_KERNELS.build(&self.robust, &ctx)?,
             minimizer,
             termination: self.termination,
+            moving: MOVING.build(&self.moving, &ctx)?,
             jackknife: true,
         })
     }
@@ -123,6 +125,7 @@ impl VariantSpec {
                 "weighting" => spec.weighting = kind(&spec.weighting),
                 "robust" => spec.robust = kind(&spec.robust),
                 "minimizer" => spec.minimizer = spec.minimizer.as_ref().map(kind),
+                "moving" => spec.moving = kind(&spec.moving),
                 _ => {}
             }
             return Ok(Some(spec.normalized()?));
@@ -215,6 +218,7 @@ pub fn stage_families() -> Vec<FamilyDoc> {
         WEIGHTINGS.doc(),
         ROBUST_KERNELS.doc(),
         MINIMIZERS.doc(),
+        MOVING.doc(),
     ]
 }
 

@@ -381,6 +381,8 @@ fn summarize(
         suspect_pairs: flagged(rows, StatusKind::Suspect),
         ambiguous_pairs: flagged(rows, StatusKind::Ambiguous),
         inconsistent_pairs: flagged(rows, StatusKind::Inconsistent),
+        dynamic_pairs: flagged(rows, StatusKind::Dynamic),
+        moving_returns: moving_summary(rows),
         trajectory: TrajectoryStats {
             heading_rms_error_deg: {
                 let e: Vec<f64> = rows.iter().filter_map(|r| r.hdg_chained_err_deg).collect();
@@ -402,6 +404,33 @@ fn summarize(
         consistency: None,
         cycles: None,
     }
+}
+
+/// What the detector of moving returns left out over `rows` (`None` without a detector).
+fn moving_summary(rows: &[PairRecord]) -> Option<MovingReturnsSummary> {
+    let detected: Vec<&PairRecord> = rows.iter().filter(|r| r.left_out_src.is_some()).collect();
+    if detected.is_empty() {
+        return None;
+    }
+    let truth = detected
+        .iter()
+        .filter_map(|r| r.left_out_truth)
+        .reduce(|a, b| a + b);
+    let share = |n: usize, of: usize| (of > 0).then(|| n as f64 / of as f64);
+    Some(MovingReturnsSummary {
+        pairs_with_left_out: detected
+            .iter()
+            .filter(|r| r.left_out_src.unwrap_or(0) + r.left_out_ref.unwrap_or(0) > 0)
+            .count(),
+        left_out_per_scan: detected
+            .iter()
+            .filter_map(|r| r.left_out_src)
+            .sum::<usize>() as f64
+            / detected.len() as f64,
+        recall: truth.and_then(|t| share(t.moving_left_out, t.moving)),
+        static_left_out_rate: truth.and_then(|t| share(t.static_left_out, t.r#static)),
+        truth,
+    })
 }
 
 /// The pairs whose status is `kind`.

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::data::RefMotion;
 use crate::measure::bound::PairBound;
 use crate::run::init::InitMode;
+use crate::run::moving::Confusion;
 use crate::run::runner::PairRun;
 use crate::run::status::StatusKind;
 
@@ -42,7 +43,8 @@ pub struct PairRecord {
     /// Whether the mean pair distance settled (empty: not registered, or an external
     /// estimate, which is not iterated here).
     pub converged: Option<bool>,
-    /// Minimisation steps (empty: not registered, or an external estimate).
+    /// Minimisation steps (empty: not registered, or an external estimate); for a pair
+    /// registered again without its moving returns, the steps of every registration.
     pub iterations: Option<usize>,
     /// Pairs the metric used at the solution.
     pub n_pairs: usize,
@@ -150,6 +152,17 @@ pub struct PairRecord {
     /// measured rigid pose (in `summary.json` only, not a `pairs.csv` column).
     #[serde(skip)]
     pub nees_with_reference_noise: Option<f64>,
+    /// Returns of the source scan its variant's detector of moving returns left out of the
+    /// registration (empty: the variant has no detector; see `crate::run::moving`).
+    #[serde(default)]
+    pub left_out_src: Option<usize>,
+    /// …of the reference scan.
+    #[serde(default)]
+    pub left_out_ref: Option<usize>,
+    /// The source scan's detection scored against its truth labels, where it has them (in
+    /// `summary.json` only, not a `pairs.csv` column).
+    #[serde(skip)]
+    pub left_out_truth: Option<Confusion>,
     /// Wall time of the registration, its scans' surface estimates aside, µs (not
     /// reproducible; last column so checks can drop it; empty for an external estimate).
     pub time_us: Option<f64>,
@@ -234,6 +247,9 @@ pub fn record(
         rot_sigma_dps: None,
         nees: None,
         nees_with_reference_noise: None,
+        left_out_src: run.left_out.map(|l| l.source),
+        left_out_ref: run.left_out.map(|l| l.reference),
+        left_out_truth: run.left_out.and_then(|l| l.source_truth),
         time_us: run.time_us,
     }
 }

@@ -21,6 +21,7 @@ use crate::measure::trajectory::{EvoMetrics, ReferenceTum};
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalSource;
 use crate::run::init::InitChain;
+use crate::run::moving::Confusion;
 use crate::run::setup::{GlobalChecks, OffsetChoice, ReferenceChecks};
 use crate::run::start_gate::StartGate;
 use icp_core::global::GlobalParams;
@@ -123,6 +124,15 @@ pub struct VariantSummary {
     /// of the variant; their numbers stay in the statistics).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub inconsistent_pairs: Vec<usize>,
+    /// Pairs registered but flagged dynamic: so much of a scan moves against the rest that
+    /// the evidence for one motion is split (failures of the variant; their numbers, without
+    /// the moving returns, stay in the statistics).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub dynamic_pairs: Vec<usize>,
+    /// What the variant's detector of moving returns left out (`None`: it has none; see
+    /// `crate::run::moving`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moving_returns: Option<MovingReturnsSummary>,
     /// Fraction of the registered pairs that converged (`None` for an external estimator:
     /// nothing is iterated here).
     pub converged_fraction: Option<f64>,
@@ -161,6 +171,22 @@ pub struct VariantSummary {
     /// The loops across lags (`--lags` above 1; see [`crate::measure::cycles`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cycles: Option<CycleSummary>,
+}
+
+/// What a variant's detector of moving returns left out over a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MovingReturnsSummary {
+    /// Pairs with returns left out of either scan.
+    pub pairs_with_left_out: usize,
+    /// Mean returns left out per scan (source scans of the run's pairs).
+    pub left_out_per_scan: f64,
+    /// Where the scans carry truth labels: the share of returns labelled moving that were
+    /// left out (over the source scans of the run's pairs).
+    pub recall: Option<f64>,
+    /// …and the share of returns labelled static that were left out.
+    pub static_left_out_rate: Option<f64>,
+    /// The source scans' labels and what was left out of them, summed.
+    pub truth: Option<Confusion>,
 }
 
 /// What the dataset was.

@@ -11,6 +11,7 @@ pub mod init;
 pub mod lags;
 pub mod modes;
 pub mod motion;
+pub mod moving;
 pub mod options;
 pub mod pair_search;
 pub mod replace;

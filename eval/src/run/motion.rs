@@ -126,6 +126,7 @@ mod tests {
             init: None,
             attempts: 1,
             time_us: None,
+            left_out: None,
         }
     }
 

@@ -27,6 +27,7 @@ use crate::run::init;
 use crate::run::init::InitChain;
 use crate::run::init::InitMode;
 use crate::run::init::Previous;
+use crate::run::moving::LeftOut;
 use crate::run::pair_search::Searched;
 use crate::run::status::GlobalCheck;
 use crate::run::status::PairStatus;
@@ -57,6 +58,10 @@ pub struct PairRun {
     /// estimates and the pair's global search aside, microseconds (not reproducible: kept
     /// apart; `None` for an external estimate, whose time is not known here).
     pub time_us: Option<f64>,
+    /// What its variant's detector of moving returns left out of the pair's scans (`None`:
+    /// the variant has none; see [`crate::run::moving`]).
+    #[serde(default)]
+    pub left_out: Option<LeftOut>,
 }
 
 /// The global search of one pair (made once, shared by every variant).
@@ -399,6 +404,7 @@ impl BlockJob<'_> {
                     init: Some(used),
                     attempts: attempt + 1,
                     time_us: Some(time_us[v]),
+                    left_out: None,
                 });
             }
             pending.retain(|&v| kept[v].as_ref().is_some_and(|r| r.status.is_failure()));
@@ -482,6 +488,7 @@ impl BlockJob<'_> {
             init: None,
             attempts: 0,
             time_us: None,
+            left_out: None,
         }
     }
 }

@@ -61,6 +61,20 @@ pub enum PairStatus {
         /// Whether two agree (within 0.1 m and 1°): then this registration alone is wrong.
         alternatives_agree: bool,
     },
+    /// Registered without the returns its detector saw move ([`crate::run::moving`]), but
+    /// so much of a scan moves against the rest that the evidence for one motion is split:
+    /// with and without those returns the scans say different things.
+    Dynamic {
+        /// The share of the source scan's surface (returns weighted by range) left out.
+        source_share: f64,
+        /// …and of the reference scan's.
+        reference_share: f64,
+        /// The motion without the returns left out.
+        without: Isometry2<f64>,
+        /// The motion the second registration started from (the first round's: with every
+        /// return). The result kept is this one when the two lie in different basins.
+        with: Isometry2<f64>,
+    },
     /// No registration: the method refused the input or broke down.
     Failed {
         /// The error, as the method said it.
@@ -84,6 +98,8 @@ pub enum StatusKind {
     Ambiguous,
     /// See [`PairStatus::Inconsistent`].
     Inconsistent,
+    /// See [`PairStatus::Dynamic`].
+    Dynamic,
     /// See [`PairStatus::Failed`].
     Failed,
 }
@@ -125,6 +141,7 @@ impl PairStatus {
             Self::Suspect { .. } => StatusKind::Suspect,
             Self::Ambiguous { .. } => StatusKind::Ambiguous,
             Self::Inconsistent { .. } => StatusKind::Inconsistent,
+            Self::Dynamic { .. } => StatusKind::Dynamic,
             Self::Failed { .. } => StatusKind::Failed,
         }
     }
@@ -179,6 +196,29 @@ impl fmt::Display for PairStatus {
                 f,
                 "{apart_m:.2} m and {apart_deg:.1}° from the one trusted loop through its neighbours across lag 2 (the other's registrations are flagged or missing)"
             ),
+            Self::Dynamic {
+                source_share,
+                reference_share,
+                without,
+                with,
+            } => {
+                let motion = |t: &Isometry2<f64>| {
+                    format!(
+                        "({:.3} m, {:.3} m, {:.2}°)",
+                        t.translation.x,
+                        t.translation.y,
+                        t.rotation.angle().to_degrees()
+                    )
+                };
+                write!(
+                    f,
+                    "{:.0} % of the source's and {:.0} % of the reference's surface move against the rest; without them t_ref_src is {}, started from {}",
+                    100.0 * source_share,
+                    100.0 * reference_share,
+                    motion(without),
+                    motion(with)
+                )
+            }
             Self::Failed { error } => write!(f, "{error}"),
         }
     }

@@ -12,7 +12,8 @@
 //!   variants, as in [`crate::run::runner`]); a basin's pair with all its perturbations;
 //! - variants ([`Cut::Variants`]): a variant with all its pairs, when a start depends on the
 //!   same variant's previous result (`--init constant-velocity`): the chain runs in order
-//!   and is never cut. Each shard then makes the pairs' global searches again (the same
+//!   and is never cut; and when a variant detects moving returns (`crate::run::moving`),
+//!   whose detections use the variant's registrations of the whole sequence. Each shard then makes the pairs' global searches again (the same
 //!   results: the search is deterministic); the part holding the run's first variant
 //!   keeps them.
 //!
@@ -497,7 +498,12 @@ impl Plan {
                 let (pairs, _) = crate::run::setup::checked_pairs(ds, &setups[0])?;
                 // `--lags` beyond the run is refused before any shard runs.
                 lags::lag_pairs(&pairs, run.lags)?;
-                let sequential = run.init.sequential();
+                // Starts that chain pairs, and detections of moving returns, need a
+                // variant's whole sequence.
+                let sequential = run.init.sequential()
+                    || setups
+                        .iter()
+                        .any(|s| s.variants.iter().any(|v| v.moving().is_some()));
                 setups
                     .iter()
                     .map(|s| RunJobs {
@@ -685,6 +691,13 @@ pub fn run_shard(
                             crate::run::runner::run_all(ds, &pairs, mine, &run_plan, progress);
                         let mut lagged =
                             lags::run(ds, lag_pairs, setup.lags, mine, &run_plan, progress);
+                        crate::run::moving::apply(
+                            ds,
+                            &pairs,
+                            mine.registrars,
+                            &mut runs,
+                            lagged.as_mut(),
+                        );
                         if slice.units.start != 0 {
                             runs.searches.clear();
                             if let Some(l) = &mut lagged {

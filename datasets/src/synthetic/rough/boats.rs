@@ -9,10 +9,12 @@
 //! ([`Boat::harbour`]) have one boat overtaking at 1.5× the vessel's speed, one meeting it at
 //! 1.2× and one slower ahead at 0.6×, each 5–8 m long, 2.2–2.8 m wide.
 //!
-//! Every return off a boat's hull is labelled moving ([`icp_core::Scan::moving`]), also while
-//! the boat lies still at either end of the run; so is a mixed pixel at a hull's edge (its
-//! range lies between the hull and what is behind or before it, so it moves with the hull).
-//! Water and spurious returns are not.
+//! Every return off a boat's hull is labelled moving ([`icp_core::Scan::moving`]) while the
+//! boat moves; so is a mixed pixel at a hull's edge (its range lies between the hull and what
+//! is behind or before it, so it moves with the hull). While a boat lies still (before its
+//! track time reaches the run, after it leaves it, or at rate 0) its hull is part of the
+//! static scene and its returns are not labelled: no detector of motion can or should find
+//! them. Water and spurious returns are not labelled.
 
 use nalgebra::{Isometry2, Point2, Vector2};
 use serde::{Deserialize, Serialize};
@@ -115,6 +117,13 @@ impl Boat {
             0.0
         };
         on_track * Isometry2::new(Vector2::new(0.0, self.lane_m), heading)
+    }
+
+    /// Whether the boat moves at `t_s` in a run of `duration_s`: its track time advances and
+    /// is not clamped to the run's ends.
+    pub fn moves_at(&self, t_s: f64, duration_s: f64) -> bool {
+        let tau = self.start_s + self.rate * t_s;
+        self.rate != 0.0 && tau > 0.0 && tau < duration_s
     }
 
     /// The hull's four sides at `pose` (a rectangle, bow along the pose's `x`).

@@ -371,7 +371,8 @@ impl<'a> RoughScanner<'a> {
             for side in boat.sides(&pose) {
                 if let Some(d) = side.hit(origin, dir) {
                     if hit.is_none_or(|(best, ..)| d < best) {
-                        hit = Some((d, side, rough.hull_top_m, true));
+                        let moving = boat.moves_at(t_s, motion.duration_s);
+                        hit = Some((d, side, rough.hull_top_m, moving));
                     }
                 }
             }

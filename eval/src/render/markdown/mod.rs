@@ -16,6 +16,7 @@ pub mod compare;
 pub mod consistency;
 pub mod cycles;
 pub mod gate;
+pub mod moving;
 pub mod reference;
 pub mod reference_floor;
 pub mod scaling;
@@ -612,6 +613,7 @@ pub fn table_md(report: &RunReport) -> String {
     trajectory_errors_md(&mut out, report);
     failures_md(&mut out, report);
     cycles::cycles_md(&mut out, report);
+    moving::moving_md(&mut out, report);
     for s in &d.skipped_pairs {
         let _ = writeln!(
             out,

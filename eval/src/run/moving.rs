@@ -1,0 +1,295 @@
+//! The second pass of a variant with a detector of moving returns ([`icp_core::moving`]): once
+//! every consecutive pair is registered, each scan's detector runs against its neighbours
+//! (k−L..k+L, chained through the same variant's registrations whose status is `ok`), and
+//! every pair whose scans have returns left out is registered again without them, starting
+//! from its first result. The first result's global check and ambiguity are kept (the second
+//! starts in its basin). A pair whose evidence is split is flagged `dynamic`, with both motions in its
+//! reason: more of a scan's scene moves than the detector's bar (the result without the
+//! moving returns is kept), or the motion without them lies farther from the one the round
+//! started from than the global check's [`SUSPECT_APART_M`] or [`SUSPECT_APART_DEG`] (the
+//! second registration found another basin; the start is kept).
+//!
+//! A detection depends on the variant's registrations of the whole sequence, so a sharded run
+//! gives each shard whole variants (the variant cut of the `shard` module), as for starts
+//! that chain pairs.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use datasets::{Dataset, ScanPair};
+use icp_core::moving::{neighbour_poses, Detection, Neighbour, RangeImage, Step};
+use icp_core::{Prepared, Registrar, Surfaces, Workspace};
+use nalgebra::Matrix3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::run::covariance::closed_form_inflation;
+use crate::run::extended::extended;
+use crate::run::lags::LagRuns;
+use crate::run::runner::{PairRun, Runs};
+use crate::run::status::{PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
+
+/// What a pair's registration left out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LeftOut {
+    /// Returns of the source scan left out.
+    pub source: usize,
+    /// Returns of the reference scan left out.
+    pub reference: usize,
+    /// The source scan's detection against its truth labels, where it has them.
+    pub source_truth: Option<Confusion>,
+}
+
+/// A detection scored against the labels of a scan.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Confusion {
+    /// Returns labelled moving.
+    pub moving: usize,
+    /// …of them left out.
+    pub moving_left_out: usize,
+    /// Returns labelled static.
+    pub r#static: usize,
+    /// …of them left out.
+    pub static_left_out: usize,
+}
+
+impl Confusion {
+    /// `detection` of `scan` scored against its labels; `None` for an unlabelled scan.
+    fn of(scan: &icp_core::Scan, detection: &Detection) -> Option<Self> {
+        let labels = scan.moving()?;
+        let mut c = Self::default();
+        for (&moving, &out) in labels.iter().zip(&detection.left_out) {
+            if moving {
+                c.moving += 1;
+                c.moving_left_out += usize::from(out);
+            } else {
+                c.r#static += 1;
+                c.static_left_out += usize::from(out);
+            }
+        }
+        Some(c)
+    }
+}
+
+impl std::ops::Add for Confusion {
+    type Output = Self;
+
+    /// The sum of two scores.
+    fn add(self, other: Self) -> Self {
+        Self {
+            moving: self.moving + other.moving,
+            moving_left_out: self.moving_left_out + other.moving_left_out,
+            r#static: self.r#static + other.r#static,
+            static_left_out: self.static_left_out + other.static_left_out,
+        }
+    }
+}
+
+/// The second pass over a run: detections from the registrations `runs` of the consecutive
+/// `pairs`, then those pairs and the ones across lags (`lagged`) registered again; as many
+/// rounds as each detector asks, each from the results of the round before.
+pub fn apply(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+    runs: &mut Runs,
+    lagged: Option<&mut LagRuns>,
+) {
+    let rounds = registrars
+        .iter()
+        .filter_map(|r| r.moving().map(|m| m.rounds()))
+        .max()
+        .unwrap_or(0);
+    let mut lagged = lagged;
+    for round in 0..rounds {
+        let detections = detect(ds, pairs, registrars, runs, round);
+        register_again(ds, pairs, registrars, &detections, runs);
+        if let Some(lagged) = lagged.as_deref_mut() {
+            let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
+            register_again(ds, &lag_pairs, registrars, &detections, &mut lagged.runs);
+        }
+    }
+}
+
+/// Per scan, a variant's detection, and its wall time, µs.
+pub type Detections = BTreeMap<usize, (Detection, f64)>;
+
+/// Per registrar (in order), its detections in the scans of `pairs` from its registrations
+/// `runs` of them (`None`: the registrar has no detector, or one of no more than `round`
+/// rounds).
+pub fn detect(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+    runs: &Runs,
+    round: usize,
+) -> Vec<Option<Detections>> {
+    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
+    scans.sort_unstable();
+    scans.dedup();
+    let detecting = registrars.iter().any(|r| r.moving().is_some());
+    let images: BTreeMap<usize, RangeImage> = if detecting {
+        scans
+            .par_iter()
+            .map(|&k| (k, RangeImage::new(&ds.scans[k])))
+            .collect()
+    } else {
+        BTreeMap::new()
+    };
+    registrars
+        .iter()
+        .zip(&runs.per_variant)
+        .map(|(reg, variant_runs)| {
+            let detector = reg.moving().filter(|m| m.rounds() > round)?;
+            let sensor = reg.spec().sensor;
+            let inflation = closed_form_inflation(&reg.spec().metric);
+            let steps = steps(ds.scans.len(), pairs, variant_runs, inflation);
+            Some(
+                scans
+                    .par_iter()
+                    .map(|&k| {
+                        let clock = Instant::now();
+                        let neighbours: Vec<Neighbour> =
+                            neighbour_poses(&steps, k, detector.lag_scans())
+                                .into_iter()
+                                .filter_map(|(j, t_nb_scan, covariance)| {
+                                    Some(Neighbour {
+                                        image: images.get(&j)?,
+                                        t_nb_scan,
+                                        covariance,
+                                    })
+                                })
+                                .collect();
+                        let detection = detector.detect(&ds.scans[k], &neighbours, &sensor);
+                        (k, (detection, clock.elapsed().as_secs_f64() * 1e6))
+                    })
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+/// Per scan i, the registration of scan i onto i+1 where it is among `pairs` and `ok`, with
+/// its extended covariance (the closed form times `inflation`, lifted to what its residuals
+/// show: [`extended`]; zero where it has none, and the detector's floor then speaks).
+fn steps(scans: usize, pairs: &[ScanPair], runs: &[PairRun], inflation: f64) -> Vec<Option<Step>> {
+    let mut steps = vec![None; scans];
+    for (pair, run) in pairs.iter().zip(runs) {
+        let Ok(reg) = &run.result else { continue };
+        if pair.reference == pair.source + 1 && run.status == PairStatus::Ok {
+            let covariance = extended(reg, inflation)
+                .and_then(|c| c.bounded().copied())
+                .unwrap_or_else(Matrix3::zeros);
+            steps[pair.source] = Some((reg.t_ref_src, covariance));
+        }
+    }
+    steps
+}
+
+/// Registers again, per registrar with `detections`, each of its registrations `runs` of
+/// `pairs` whose scans have returns left out, from its first result, and records what was
+/// left out (a pair with nothing left out keeps its result).
+pub fn register_again(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+    detections: &[Option<Detections>],
+    runs: &mut Runs,
+) {
+    for ((reg, found), variant_runs) in registrars
+        .iter()
+        .zip(detections)
+        .zip(runs.per_variant.iter_mut())
+    {
+        let Some(found) = found else { continue };
+        let reg = reg.as_ref();
+        variant_runs
+            .par_iter_mut()
+            .zip(pairs.par_iter())
+            .for_each_init(Workspace::default, |workspace, (run, pair)| {
+                let (Some((src, src_us)), Some((dst, _))) =
+                    (found.get(&pair.source), found.get(&pair.reference))
+                else {
+                    return;
+                };
+                again(ds, reg, workspace, *pair, (src, dst), run);
+                if let Some(t) = run.time_us.as_mut() {
+                    *t += src_us;
+                }
+            });
+    }
+}
+
+/// The pair's registration again without the returns `found` left out of its scans.
+fn again(
+    ds: &Dataset,
+    reg: &dyn Registrar,
+    workspace: &mut Workspace,
+    pair: ScanPair,
+    (src, dst): (&Detection, &Detection),
+    run: &mut PairRun,
+) {
+    let (source, reference) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+    run.left_out = Some(LeftOut {
+        source: src.count(),
+        reference: dst.count(),
+        source_truth: Confusion::of(source, src),
+    });
+    let Ok(first) = &run.result else { return };
+    if src.count() + dst.count() == 0 {
+        return;
+    }
+    let clock = Instant::now();
+    let (source, reference) = (
+        source.without(&src.left_out),
+        reference.without(&dst.left_out),
+    );
+    let params = reg.surface_params();
+    let (ss, rs) = (
+        Surfaces::estimate(&source, &params),
+        Surfaces::estimate(&reference, &params),
+    );
+    let result = reg.register_prepared(
+        workspace,
+        Prepared::new(&source, &ss),
+        Prepared::new(&reference, &rs),
+        first.t_ref_src,
+    );
+    if let Some(t) = run.time_us.as_mut() {
+        *t += clock.elapsed().as_secs_f64() * 1e6;
+    }
+    let Ok(without) = &result else {
+        // Too few returns left to register, say: the pair fails with the reason.
+        run.status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
+        run.result = result;
+        return;
+    };
+    // Split evidence: the motion without the moving returns is far from the one it started
+    // from (another basin, whatever its own verdict: the start, which the round before agreed
+    // on, is kept), or much of a scan moves (the result without them is kept).
+    let d = first.t_ref_src.inverse() * without.t_ref_src;
+    let jumped = d.translation.vector.norm() > SUSPECT_APART_M
+        || d.rotation.angle().to_degrees().abs() > SUSPECT_APART_DEG;
+    let status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
+    let dynamic = PairStatus::Dynamic {
+        source_share: src.moving_share,
+        reference_share: dst.moving_share,
+        without: without.t_ref_src,
+        with: first.t_ref_src,
+    };
+    if jumped {
+        run.status = dynamic;
+        return;
+    }
+    let mut result = result;
+    if let Ok(r) = result.as_mut() {
+        // The work of both registrations.
+        r.iterations += first.iterations;
+    }
+    run.status = if !status.is_failure() && (src.split || dst.split) {
+        dynamic
+    } else {
+        status
+    };
+    run.result = result;
+}

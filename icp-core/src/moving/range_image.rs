@@ -1,0 +1,108 @@
+//! A scan as its scanner saw it: the range of each beam by bearing, for asking what the scanner
+//! saw along a given ray.
+
+use std::f64::consts::{PI, TAU};
+
+use crate::Scan;
+
+/// The shortest range of one scan's returns per bearing bin (half the scan's beam spacing
+/// wide), with the scan's beam spacing: a window of bearings is a run of bins.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RangeImage {
+    /// Per bin from −π, the shortest range of its returns, m (infinite: none).
+    min_range_m: Vec<f64>,
+    /// Bin width, rad.
+    bin_rad: f64,
+    /// The median gap between neighbouring bearings, rad (0 with fewer than two returns).
+    spacing_rad: f64,
+}
+
+/// Bins per beam spacing.
+const BINS_PER_BEAM: f64 = 2.0;
+/// The finest bin, rad, whatever the spacing (a scan with coincident bearings).
+const MIN_BIN_RAD: f64 = 1e-4;
+
+impl RangeImage {
+    /// The range image of `scan` (bearings from its points, so whatever the dataset's sense).
+    pub fn new(scan: &Scan) -> Self {
+        let mut bearings: Vec<f64> = scan
+            .returns()
+            .iter()
+            .map(|r| r.point.y.atan2(r.point.x))
+            .collect();
+        bearings.sort_by(f64::total_cmp);
+        let mut gaps: Vec<f64> = bearings
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .filter(|&g| g > 0.0)
+            .collect();
+        gaps.sort_by(f64::total_cmp);
+        let spacing_rad = gaps.get(gaps.len() / 2).copied().unwrap_or(0.0);
+        let bins = ((TAU / (spacing_rad / BINS_PER_BEAM).max(MIN_BIN_RAD)).ceil() as usize).max(1);
+        let bin_rad = TAU / bins as f64;
+        let mut min_range_m = vec![f64::INFINITY; bins];
+        for r in scan.returns() {
+            let b = bin_of(r.point.y.atan2(r.point.x), bin_rad, bins);
+            min_range_m[b] = min_range_m[b].min(r.range_m);
+        }
+        Self {
+            min_range_m,
+            bin_rad,
+            spacing_rad,
+        }
+    }
+
+    /// The median gap between neighbouring bearings, rad.
+    pub fn spacing_rad(&self) -> f64 {
+        self.spacing_rad
+    }
+
+    /// The shortest range among the returns within `half_width_rad` of `bearing_rad` (either
+    /// side, across ±π; to within a bin, half a beam spacing), m; `None` when the scanner has
+    /// no return there (no beam, or beams that met nothing within their range).
+    pub fn nearest_range_m(&self, bearing_rad: f64, half_width_rad: f64) -> Option<f64> {
+        let bins = self.min_range_m.len();
+        if bins == 0 || !bearing_rad.is_finite() {
+            return None;
+        }
+        let centre = bin_of(bearing_rad, self.bin_rad, bins);
+        let reach = ((half_width_rad / self.bin_rad).round() as usize).min(bins / 2);
+        let nearest = (0..=2 * reach)
+            .map(|i| self.min_range_m[(centre + bins + i - reach) % bins])
+            .fold(f64::INFINITY, f64::min);
+        nearest.is_finite().then_some(nearest)
+    }
+}
+
+/// The bin of `bearing_rad` among `bins` of `bin_rad` from −π.
+fn bin_of(bearing_rad: f64, bin_rad: f64, bins: usize) -> usize {
+    let from = (bearing_rad + PI).rem_euclid(TAU);
+    ((from / bin_rad) as usize).min(bins - 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_the_nearest_range_in_a_window_across_the_back() {
+        let bearings: Vec<f64> = (0..360).map(|i| (i as f64 - 180.0).to_radians()).collect();
+        let ranges: Vec<f64> = (0..360).map(|i| 1.0 + i as f64).collect();
+        let image = RangeImage::new(&Scan::from_polar(&ranges, &bearings).unwrap());
+        assert!((image.spacing_rad() - 1f64.to_radians()).abs() < 1e-12);
+        // Bearing 10° is index 190: range 191. Bins are half a degree: ±0.6° from 10.25° is
+        // the bins from 9.5° to 11°, which hold 10° alone; ±1.6° reaches 9° (range 190).
+        let r = image.nearest_range_m(10.25f64.to_radians(), 0.6f64.to_radians());
+        assert_eq!(r, Some(191.0));
+        let r = image.nearest_range_m(10.25f64.to_radians(), 1.6f64.to_radians());
+        assert_eq!(r, Some(190.0));
+        // Across ±π: −180° (range 1) and 179° (range 360) are both within 1.5° of 179.5°.
+        let r = image.nearest_range_m(179.5f64.to_radians(), 1.5f64.to_radians());
+        assert_eq!(r, Some(1.0));
+        // A window with no beam.
+        let sparse = Scan::from_polar(&[5.0, 6.0], &[0.0, 1.0]).unwrap();
+        let image = RangeImage::new(&sparse);
+        assert_eq!(image.nearest_range_m(0.5, 0.1), None);
+        assert_eq!(image.nearest_range_m(0.95, 0.1), Some(6.0));
+    }
+}
