@@ -191,8 +191,10 @@ pub fn build(
             summary.trajectory.ate_rmse_m = evo.as_ref().map(|e| e.ate_trans_m.rmse);
             summary.trajectory.evo = evo;
         }
-        // An external estimate has no covariance to judge.
-        if let Some(last) = summaries.last_mut().filter(|_| vi < setup.variants.len()) {
+        // An external estimate has no covariance to judge; a smoothed one (after them) has.
+        let judged =
+            vi < setup.variants.len() || vi >= setup.variants.len() + setup.estimates.len();
+        if let Some(last) = summaries.last_mut().filter(|_| judged) {
             last.consistency = consistency::summarize(
                 &rows,
                 setup.covariance,
@@ -303,6 +305,8 @@ pub fn build(
         trajectories,
         reference_trajectory,
         cycles: Vec::new(),
+        sequence: Vec::new(),
+        sequence_scans: Vec::new(),
     }
 }
 

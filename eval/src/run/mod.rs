@@ -17,6 +17,7 @@ pub mod replace;
 pub mod restarts;
 pub mod runner;
 pub mod sampled;
+pub mod sequence;
 pub mod setup;
 pub mod start_gate;
 pub mod status;

@@ -11,6 +11,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalEstimates;
 use crate::run::init::InitChain;
+use crate::run::sequence::{SequenceMode, SequenceSetup};
 use crate::run::start_gate::{self, StartGate};
 
 /// How the reference is aligned in time with the scans.
@@ -61,6 +62,9 @@ pub struct EvalSetup {
     /// Every variant also registers `k → k+ℓ` for `2 ≤ ℓ ≤ lags` (1: consecutive pairs only;
     /// see [`crate::run::lags`]).
     pub lags: usize,
+    /// Each variant's registrations also smoothed over the scan sequence in these modes, as
+    /// estimators `V+batch`, `V+causal` (see [`crate::run::sequence`]).
+    pub sequence: SequenceSetup,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -92,8 +96,15 @@ impl EvalSetup {
             covariance: CovarianceMode::Off,
             estimates: Vec::new(),
             lags: 1,
+            sequence: SequenceSetup::default(),
         };
         Ok(setup.with_covariance(CovarianceMode::Off))
+    }
+
+    /// The same setup smoothing each variant over the scan sequence in `modes`.
+    pub fn with_sequence(mut self, modes: &[SequenceMode]) -> Self {
+        self.sequence = SequenceSetup::new(modes, &self.variants);
+        self
     }
 
     /// The same setup registering across lags up to `lags`.
@@ -121,13 +132,14 @@ impl EvalSetup {
         }
     }
 
-    /// The names of the methods, in the order of their results: the variants, then the
-    /// external estimators.
+    /// The names of the methods, in the order of their results: the variants, the external
+    /// estimators, then the smoothed ones (`V+batch`, `V+causal`).
     pub fn method_names(&self) -> Vec<&str> {
         self.variants
             .iter()
             .map(|v| v.name())
             .chain(self.estimates.iter().map(|e| e.source.name.as_str()))
+            .chain(self.sequence.names())
             .collect()
     }
 
