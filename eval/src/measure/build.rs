@@ -130,7 +130,7 @@ pub fn build(
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();
-    for (vi, name) in setup.method_names().into_iter().enumerate() {
+    for (vi, name) in setup.reported_names().into_iter().enumerate() {
         let mut rows = Vec::with_capacity(pairs.len());
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
         // An external estimate has no covariance: no inflation of one.

@@ -132,15 +132,22 @@ impl EvalSetup {
         }
     }
 
-    /// The names of the methods, in the order of their results: the variants, the external
-    /// estimators, then the smoothed ones (`V+batch`, `V+causal`).
+    /// The names of the methods, in the order of their results: the variants, then the
+    /// external estimators.
     pub fn method_names(&self) -> Vec<&str> {
         self.variants
             .iter()
             .map(|v| v.name())
             .chain(self.estimates.iter().map(|e| e.source.name.as_str()))
-            .chain(self.sequence.names())
             .collect()
+    }
+
+    /// The names of the estimators the report has: the methods, then the smoothed ones
+    /// (`V+batch`, `V+causal`, made from the methods' results when the report is made).
+    pub fn reported_names(&self) -> Vec<&str> {
+        let mut names = self.method_names();
+        names.extend(self.sequence.names());
+        names
     }
 
     /// The same setup with the correspondence gate `gate` of registrations started at the
