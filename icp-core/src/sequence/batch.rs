@@ -1,6 +1,6 @@
 //! The batch smoother: Gauss–Newton over every scan's pose and twist with faer's sparse
 //! Cholesky (the symbolic factorisation once per run, the numeric one per iteration), and the
-//! marginal covariances of each scan and of each consecutive pair from the final factor.
+//! marginal covariances of each scan and of each consecutive pair from the final system.
 
 use std::collections::BTreeSet;
 
@@ -10,6 +10,7 @@ use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
 use nalgebra::{Matrix3, Vector3};
 
+use super::band::Band;
 use super::factors::Matrix6;
 use super::system::{Estimates, Layout, Model, Sink};
 use super::SequenceError;
@@ -132,8 +133,7 @@ pub(crate) fn linearise(
 }
 
 /// Gauss–Newton from `est` until the largest step is below `tolerance` or after
-/// `max_iterations`; returns the system linearised at the result and its factor, and the
-/// iterations taken.
+/// `max_iterations`; leaves `sys` linearised at the result and returns the iterations taken.
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -141,76 +141,67 @@ pub(crate) fn solve(
     layout: &Layout,
     max_iterations: usize,
     tolerance: f64,
-) -> Result<(Llt<usize, f64>, usize), SequenceError> {
-    let mut iterations = 0;
-    loop {
+) -> Result<usize, SequenceError> {
+    for iteration in 1..=max_iterations {
         linearise(model, est, layout, sys);
-        let llt = sys.factor()?;
-        if iterations == max_iterations {
-            return Ok((llt, iterations));
-        }
-        let delta = sys.step(&llt);
+        let delta = sys.step(&sys.factor()?);
         if delta.iter().any(|d| !d.is_finite()) {
             return Err(SequenceError::Factorisation { what: "step" });
         }
         layout.apply(model.geometry, est, &delta);
-        iterations += 1;
         if delta.iter().all(|d| d.abs() <= tolerance) {
             linearise(model, est, layout, sys);
-            return Ok((sys.factor()?, iterations));
+            return Ok(iteration);
         }
     }
+    linearise(model, est, layout, sys);
+    Ok(max_iterations)
 }
 
 /// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero) and the
-/// cross-covariance `Σ_k,k+1` of consecutive scans, from the columns of `H⁻¹` of each scan
-/// (solved `CHUNK` scans at a time, so memory stays linear in scans).
+/// cross-covariance `Σ_k,k+1` of consecutive scans: the band of `H⁻¹` (see [`Band`]) of the
+/// system linearised at the solution.
 pub(crate) fn marginals(
-    llt: &Llt<usize, f64>,
+    sys: &SparseSystem,
     layout: &Layout,
     n_states: usize,
-) -> (Vec<Matrix6>, Vec<Matrix6>) {
-    const CHUNK: usize = 32;
+) -> Result<(Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
+    let m = sys.mat.as_ref();
+    let (col_ptr, row_idx, vals) = (m.symbolic().col_ptr(), m.symbolic().row_idx(), m.val());
     let n = layout.dim();
-    let mut own = vec![Matrix6::zeros(); n_states];
-    let mut cross = vec![Matrix6::zeros(); n_states.saturating_sub(1)];
-    let mut start = 0;
-    while start < n_states {
-        let end = (start + CHUNK).min(n_states);
-        // Columns: for each state in the chunk, its (up to) six scalars.
-        let cols: Vec<(usize, usize, usize)> = (start..end)
-            .flat_map(|k| {
-                layout
-                    .state_blocks(k)
-                    .into_iter()
-                    .enumerate()
-                    .filter_map(move |(slot, b)| b.map(|b| (k, slot, b)))
-                    .flat_map(|(k, slot, b)| (0..3).map(move |r| (k, 3 * slot + r, 3 * b + r)))
-            })
-            .collect();
-        let mut rhs = Mat::<f64>::zeros(n, cols.len());
-        for (j, &(_, _, row)) in cols.iter().enumerate() {
-            rhs[(row, j)] = 1.0;
+    let width = (0..n)
+        .flat_map(|c| {
+            row_idx[col_ptr[c]..col_ptr[c + 1]]
+                .iter()
+                .map(move |&r| c - r)
+        })
+        .max()
+        .unwrap_or(0);
+    let mut h = Band::zeros(n, width);
+    for c in 0..n {
+        for p in col_ptr[c]..col_ptr[c + 1] {
+            h.set(c, row_idx[p], vals[p]);
         }
-        llt.solve_in_place(rhs.as_mut());
-        for (j, &(k, local_col, _)) in cols.iter().enumerate() {
-            for (slot, b) in layout.state_blocks(k).into_iter().enumerate() {
-                let Some(b) = b else { continue };
+    }
+    let sigma = h.inverse_band()?;
+    let block = |a: usize, b: usize| -> Matrix6 {
+        let mut out = Matrix6::zeros();
+        for (sa, ba) in layout.state_blocks(a).into_iter().enumerate() {
+            let Some(ba) = ba else { continue };
+            for (sb, bb) in layout.state_blocks(b).into_iter().enumerate() {
+                let Some(bb) = bb else { continue };
                 for r in 0..3 {
-                    own[k][(3 * slot + r, local_col)] = rhs[(3 * b + r, j)];
-                }
-            }
-            if k + 1 < n_states {
-                // cross[k] = Σ_k,k+1: rows of k, columns of k+1; column j of H⁻¹ is a row of it.
-                for (slot, b) in layout.state_blocks(k + 1).into_iter().enumerate() {
-                    let Some(b) = b else { continue };
-                    for r in 0..3 {
-                        cross[k][(local_col, 3 * slot + r)] = rhs[(3 * b + r, j)];
+                    for c in 0..3 {
+                        out[(3 * sa + r, 3 * sb + c)] = sigma.at(3 * ba + r, 3 * bb + c);
                     }
                 }
             }
         }
-        start = end;
-    }
-    (own, cross)
+        out
+    };
+    let own = (0..n_states).map(|k| block(k, k)).collect();
+    let cross = (0..n_states.saturating_sub(1))
+        .map(|k| block(k, k + 1))
+        .collect();
+    Ok((own, cross))
 }

@@ -33,6 +33,7 @@
 //! registrations at other lags; a step no registration spans is marked
 //! [`StepEstimate::supported`] `false`, and its covariance is the prior's.
 
+mod band;
 mod batch;
 mod causal;
 mod factors;

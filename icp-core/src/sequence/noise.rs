@@ -6,7 +6,7 @@ use nalgebra::SMatrix;
 
 use super::batch::{self, SparseSystem};
 use super::factors::{self, Matrix6};
-use super::system::{Estimates, Model, Reg};
+use super::system::{Estimates, Layout, Model, Reg};
 use super::{full_layout, Geometry, SequenceError, SmootherOptions};
 
 /// Smallest `q` an axis may take, so that `Q` stays invertible when an axis does not move.
@@ -16,21 +16,32 @@ const Q_FLOOR: f64 = 1e-12;
 /// the cross-covariance of consecutive scans.
 pub(crate) fn batch_with_marginals(
     model: &Model<'_>,
-    mut est: Estimates,
+    est: Estimates,
     options: &SmootherOptions,
 ) -> Result<(Estimates, Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
-    let n = est.poses.len();
-    let layout = full_layout(n);
-    let mut sys = SparseSystem::new(model, &layout, n)?;
-    let (llt, _) = batch::solve(
+    let layout = full_layout(est.poses.len());
+    let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
+    solve_with_marginals(model, est, &mut sys, &layout, options)
+}
+
+/// [`batch_with_marginals`] on the system `sys` already laid out (its symbolic factorisation
+/// made once for every round of the estimation).
+fn solve_with_marginals(
+    model: &Model<'_>,
+    mut est: Estimates,
+    sys: &mut SparseSystem,
+    layout: &Layout,
+    options: &SmootherOptions,
+) -> Result<(Estimates, Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
+    batch::solve(
         model,
         &mut est,
-        &mut sys,
-        &layout,
+        sys,
+        layout,
         options.max_iterations,
         options.tolerance,
     )?;
-    let (own, cross) = batch::marginals(&llt, &layout, n);
+    let (own, cross) = batch::marginals(sys, layout, est.poses.len())?;
     Ok((est, own, cross))
 }
 
@@ -61,39 +72,109 @@ pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [
     sum.map(|s| (s / count as f64).max(Q_FLOOR))
 }
 
-/// Expectation–maximisation of `Qc` from `qc0`: returns `Qc` and the rounds taken.
+/// Expectation–maximisation of `Qc` from `qc0`, accelerated by SQUAREM (Varadhan & Roland
+/// 2008) on `ln Qc`: two EM rounds give the step `r` and its change `v`, the extrapolation
+/// `ln q₀ − 2αr + α²v` (`α = −‖r‖/‖v‖`, at most −1: no slower than plain EM) is followed by
+/// one EM round, which keeps every `q` an M-step's value. Stops when a round moves no axis by
+/// more than `tolerance` (relative) or after `max_rounds` EM rounds; returns `Qc` and the EM
+/// rounds taken.
 pub(crate) fn estimate(
     options: &SmootherOptions,
     times_s: &[f64],
     regs: &[Reg],
-    mut est: Estimates,
+    est: Estimates,
     qc0: [f64; 3],
-    max_iterations: usize,
+    max_rounds: usize,
     tolerance: f64,
 ) -> Result<([f64; 3], usize), SequenceError> {
-    let mut qc = qc0;
-    for round in 1..=max_iterations {
-        let model = Model {
-            geometry: options.geometry,
-            times_s,
-            regs,
-            qc,
-            huber_k: options.huber_k,
-            twist0: super::twist0(options)?,
-        };
-        let (smoothed, own, cross) = batch_with_marginals(&model, est, options)?;
-        let next = m_step(&model, &smoothed, &own, &cross);
-        est = smoothed;
-        let settled = next
-            .iter()
-            .zip(&qc)
-            .all(|(a, b)| (a - b).abs() <= tolerance * b);
-        qc = next;
-        if settled {
-            return Ok((qc, round));
+    let mut em = Em {
+        options,
+        times_s,
+        regs,
+        layout: full_layout(times_s.len()),
+        sys: None,
+        est,
+        rounds: 0,
+        twist0: super::twist0(options)?,
+    };
+    let settled =
+        |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance * y);
+    let mut q0 = qc0;
+    while em.rounds < max_rounds {
+        let q1 = em.round(q0)?;
+        if settled(&q1, &q0) || em.rounds + 2 > max_rounds {
+            return Ok((q1, em.rounds));
         }
+        let q2 = em.round(q1)?;
+        let (l0, l1, l2) = (q0.map(f64::ln), q1.map(f64::ln), q2.map(f64::ln));
+        let r: Vec<f64> = (0..3).map(|a| l1[a] - l0[a]).collect();
+        let v: Vec<f64> = (0..3).map(|a| l2[a] - 2.0 * l1[a] + l0[a]).collect();
+        let norm = |x: &[f64]| x.iter().map(|e| e * e).sum::<f64>().sqrt();
+        let alpha = if norm(&v) > 0.0 {
+            (-norm(&r) / norm(&v)).min(-1.0)
+        } else {
+            -1.0
+        };
+        let jump: [f64; 3] = std::array::from_fn(|a| {
+            (l0[a] - 2.0 * alpha * r[a] + alpha * alpha * v[a])
+                .exp()
+                .max(Q_FLOOR)
+        });
+        let q3 = em.round(if jump.iter().all(|q| q.is_finite()) {
+            jump
+        } else {
+            q2
+        })?;
+        if settled(&q3, &q2) {
+            return Ok((q3, em.rounds));
+        }
+        q0 = q3;
     }
-    Ok((qc, max_iterations))
+    Ok((q0, em.rounds))
+}
+
+/// The state of an estimation: the system (laid out, and symbolically factorised, once) and
+/// the estimates each round starts from.
+struct Em<'a> {
+    options: &'a SmootherOptions,
+    times_s: &'a [f64],
+    regs: &'a [Reg],
+    layout: Layout,
+    sys: Option<SparseSystem>,
+    est: Estimates,
+    rounds: usize,
+    twist0: Option<super::system::Gaussian3>,
+}
+
+impl Em<'_> {
+    /// One EM round from `qc`: smooth (the E-step), then the M-step.
+    fn round(&mut self, qc: [f64; 3]) -> Result<[f64; 3], SequenceError> {
+        let model = Model {
+            geometry: self.options.geometry,
+            times_s: self.times_s,
+            regs: self.regs,
+            qc,
+            huber_k: self.options.huber_k,
+            twist0: self.twist0,
+        };
+        let sys = match &mut self.sys {
+            Some(sys) => sys,
+            none => none.insert(SparseSystem::new(&model, &self.layout, self.times_s.len())?),
+        };
+        let est = std::mem::replace(
+            &mut self.est,
+            Estimates {
+                poses: Vec::new(),
+                twists: Vec::new(),
+            },
+        );
+        let (smoothed, own, cross) =
+            solve_with_marginals(&model, est, sys, &self.layout, self.options)?;
+        let next = m_step(&model, &smoothed, &own, &cross);
+        self.est = smoothed;
+        self.rounds += 1;
+        Ok(next)
+    }
 }
 
 /// The M-step: for each axis, `q = (1/2K) Σ_k tr(A_k⁻¹ E[e_k e_kᵀ])` over the K priors, where
