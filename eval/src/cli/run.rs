@@ -11,7 +11,7 @@ use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::{EstimatesSpec, TILT_NOTE_DEG};
 use eval::run::init::InitChain;
 use eval::run::options::{refuse_reference_options, RunOptions};
-use eval::run::sequence::SequenceMode;
+use eval::run::sequence_setup::SequenceMode;
 use eval::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use eval::run::start_gate::StartGate;
 use eval::shard::Work;

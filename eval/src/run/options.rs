@@ -15,7 +15,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::EstimatesSpec;
 use crate::run::init::InitChain;
-use crate::run::sequence::SequenceMode;
+use crate::run::sequence_setup::SequenceMode;
 use crate::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use crate::run::start_gate::StartGate;
 
@@ -46,7 +46,7 @@ pub struct RunOptions {
     #[serde(default = "one_lag")]
     pub lags: usize,
     /// Each variant also smoothed over the scan sequence in these modes (`--sequence`; see
-    /// [`crate::run::sequence`]).
+    /// the `sequence` module of `run`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sequence: Vec<SequenceMode>,
 }

@@ -11,7 +11,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalEstimates;
 use crate::run::init::InitChain;
-use crate::run::sequence::{SequenceMode, SequenceSetup};
+use crate::run::sequence_setup::{SequenceMode, SequenceSetup};
 use crate::run::start_gate::{self, StartGate};
 
 /// How the reference is aligned in time with the scans.
@@ -63,7 +63,7 @@ pub struct EvalSetup {
     /// see [`crate::run::lags`]).
     pub lags: usize,
     /// Each variant's registrations also smoothed over the scan sequence in these modes, as
-    /// estimators `V+batch`, `V+causal` (see [`crate::run::sequence`]).
+    /// estimators `V+batch`, `V+causal` (made by the `sequence` module of `run`).
     pub sequence: SequenceSetup,
 }
 
