@@ -51,6 +51,7 @@ fn main() -> anyhow::Result<()> {
         covariance: Default::default(),
         estimates: Vec::new(),
         lags: 1,
+        sequence: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden())?;
     for (v, spec) in report.variants.iter().zip(&report.config.variants) {

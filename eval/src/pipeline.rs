@@ -14,6 +14,7 @@ use crate::run::moving;
 use crate::run::restarts;
 use crate::run::runner::{self, Runs};
 use crate::run::sampled;
+use crate::run::sequence;
 use crate::run::setup::{checked_pairs, EvalSetup, GlobalChecks};
 
 /// Runs every variant of `setup` over every consecutive pair of `ds` (and across lags, with
@@ -49,7 +50,8 @@ pub fn evaluate(
 }
 
 /// The report of a run's registrations `runs` of `pairs` (and, with `--lags`, those across
-/// lags `lagged`, whose loops flag the inconsistent ones first): what a single run and the
+/// lags `lagged`, whose loops flag the inconsistent ones first), with the smoothed estimators
+/// of `--sequence` (made here from the flagged registrations): what a single run and the
 /// merge of a sharded one both make, once every registration is in.
 pub fn report(
     ds: &Dataset,
@@ -59,23 +61,33 @@ pub fn report(
     mut runs: Runs,
     lagged: Option<&LagRuns>,
 ) -> RunReport {
-    let Some(lagged) = lagged else {
-        return build::build(ds, pairs, skipped, setup, &runs);
-    };
     // The loops' flags (only ever on a registration nothing else flagged) join the others
-    // before the records are made.
-    let checked = cycles::check(setup, &runs, lagged);
-    for (variant, flags) in runs.per_variant.iter_mut().zip(&checked.flags) {
-        for (run, flag) in variant.iter_mut().zip(flags) {
-            if let Some(flag) = flag {
-                run.status = flag.clone();
+    // before the records are made, and before the smoother leaves flagged ones out.
+    let checked = lagged.map(|lagged| cycles::check(setup, &runs, lagged));
+    if let Some(checked) = &checked {
+        for (variant, flags) in runs.per_variant.iter_mut().zip(&checked.flags) {
+            for (run, flag) in variant.iter_mut().zip(flags) {
+                if let Some(flag) = flag {
+                    run.status = flag.clone();
+                }
             }
         }
     }
-    let mut report = build::build(ds, pairs, skipped, setup, &runs);
-    for (v, summary) in report.variants.iter_mut().zip(checked.summaries) {
-        v.cycles = Some(summary);
+    let smoothed =
+        (!setup.sequence.is_empty()).then(|| sequence::smooth(ds, pairs, setup, &runs, lagged));
+    if let Some(s) = &smoothed {
+        runs.per_variant.extend(s.runs.iter().cloned());
     }
-    report.cycles = checked.records;
+    let mut report = build::build(ds, pairs, skipped, setup, &runs);
+    if let Some(checked) = checked {
+        for (v, summary) in report.variants.iter_mut().zip(checked.summaries) {
+            v.cycles = Some(summary);
+        }
+        report.cycles = checked.records;
+    }
+    if let Some(s) = smoothed {
+        report.sequence = s.summaries;
+        report.sequence_scans = s.records;
+    }
     report
 }

@@ -190,6 +190,7 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
         covariance: Default::default(),
         estimates: Vec::new(),
         lags: 1,
+        sequence: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.population.pairs, 6);

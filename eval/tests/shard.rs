@@ -630,3 +630,40 @@ fn the_shard_comes_from_the_option_slurm_or_kubernetes_and_they_must_agree() {
         shard(2, 4)
     );
 }
+
+/// `--sequence`: the smoothed estimators are made at the merge from every shard's
+/// registrations (consecutive and across lags), and equal the single run's, sequence.csv
+/// included.
+#[test]
+fn sequence_shards_smooth_at_the_merge_as_the_single_run() {
+    let base = [
+        "run",
+        "--dataset",
+        "synthetic:paper",
+        "--scans",
+        "30",
+        "--variants",
+        "PL_ICP,GICP",
+        "--lags",
+        "3",
+        "--sequence",
+        "batch,causal",
+        "--quiet",
+        "--no-plots",
+    ];
+    let dir = common::scratch_dir("shard_sequence");
+    for (merged, files) in merged_equal_single(&base, &dir, &[2, 3]) {
+        assert!(files >= 8, "{files} files compared");
+        let sequence = std::fs::read_to_string(merged.join("sequence.csv")).unwrap();
+        // 30 scans for each of PL_ICP+batch, PL_ICP+causal, GICP+batch, GICP+causal.
+        assert_eq!(sequence.lines().count(), 1 + 4 * 30);
+        let pairs = std::fs::read_to_string(merged.join("pairs.csv")).unwrap();
+        assert_eq!(
+            pairs
+                .lines()
+                .filter(|l| l.starts_with("GICP+causal,"))
+                .count(),
+            29
+        );
+    }
+}

@@ -43,6 +43,7 @@ fn a_user_variant_runs_compares_and_describes_itself() {
         covariance: Default::default(),
         estimates: Vec::new(),
         lags: 1,
+        sequence: Default::default(),
     };
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
     assert_eq!(report.variants[1].name, "RA_ICP");

@@ -65,6 +65,7 @@ pub mod robust;
 pub mod scan;
 pub mod select;
 pub mod sensor;
+pub mod sequence;
 pub mod spec;
 pub mod static_str;
 pub mod surface;

@@ -148,6 +148,7 @@ impl<'py> Options<'py> {
             covariance: self.parse::<CovarianceMode>("covariance", "extended")?,
             estimates,
             lags: self.parse::<usize>("lags", "1")?,
+            sequence: Vec::new(),
         })
     }
 

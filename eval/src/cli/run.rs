@@ -11,6 +11,7 @@ use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::{EstimatesSpec, TILT_NOTE_DEG};
 use eval::run::init::InitChain;
 use eval::run::options::{refuse_reference_options, RunOptions};
+use eval::run::sequence_setup::SequenceMode;
 use eval::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use eval::run::start_gate::StartGate;
 use eval::shard::Work;
@@ -76,6 +77,12 @@ pub(crate) struct RunArgs {
     /// docs/reference.md.
     #[arg(long, default_value_t = 1)]
     pub(crate) lags: usize,
+    /// Also smooth each variant V's registrations (with `--lags`, those across lags too) over
+    /// the whole scan sequence: estimators `V+batch` (every scan from the whole run) and
+    /// `V+causal` (each scan from the scans up to it), and `sequence.csv`. Comma-separated.
+    /// See docs/sequence.md.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub(crate) sequence: Vec<SequenceMode>,
     /// Output directory.
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -105,6 +112,7 @@ impl RunArgs {
             covariance: self.covariance,
             estimates: self.estimates.clone(),
             lags: self.lags,
+            sequence: self.sequence.clone(),
         })
     }
 

@@ -131,7 +131,7 @@ pub fn build(
     let mut records = Vec::new();
     let mut summaries = Vec::new();
     let mut trajectories = Vec::new();
-    for (vi, name) in setup.method_names().into_iter().enumerate() {
+    for (vi, name) in setup.reported_names().into_iter().enumerate() {
         let mut rows = Vec::with_capacity(pairs.len());
         let chained = chained_heading_errors(pairs, &estimates[vi], &refs);
         // An external estimate has no covariance: no inflation of one.
@@ -192,8 +192,10 @@ pub fn build(
             summary.trajectory.ate_rmse_m = evo.as_ref().map(|e| e.ate_trans_m.rmse);
             summary.trajectory.evo = evo;
         }
-        // An external estimate has no covariance to judge.
-        if let Some(last) = summaries.last_mut().filter(|_| vi < setup.variants.len()) {
+        // An external estimate has no covariance to judge; a smoothed one (after them) has.
+        let judged =
+            vi < setup.variants.len() || vi >= setup.variants.len() + setup.estimates.len();
+        if let Some(last) = summaries.last_mut().filter(|_| judged) {
             last.consistency = consistency::summarize(
                 &rows,
                 setup.covariance,
@@ -304,6 +306,8 @@ pub fn build(
         trajectories,
         reference_trajectory,
         cycles: Vec::new(),
+        sequence: Vec::new(),
+        sequence_scans: Vec::new(),
     }
 }
 

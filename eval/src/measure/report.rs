@@ -22,6 +22,7 @@ use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalSource;
 use crate::run::init::InitChain;
 use crate::run::moving::Confusion;
+use crate::run::sequence::{SequenceRecord, SequenceSummary};
 use crate::run::setup::{GlobalChecks, OffsetChoice, ReferenceChecks};
 use crate::run::start_gate::StartGate;
 use icp_core::global::GlobalParams;
@@ -374,4 +375,11 @@ pub struct RunReport {
     /// Every loop across lags, per variant (written to `cycles.csv`; empty without `--lags`).
     #[serde(skip)]
     pub cycles: Vec<CycleRecord>,
+    /// The smoothed estimators of `--sequence`: what each used and the `Qc` it estimated.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sequence: Vec<SequenceSummary>,
+    /// `sequence.csv`: per smoothed estimator and scan, the fused state (not in
+    /// `summary.json`).
+    #[serde(skip)]
+    pub sequence_scans: Vec<SequenceRecord>,
 }

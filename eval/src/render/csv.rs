@@ -1,16 +1,20 @@
 //! `pairs.csv`: one row per variant and pair, the records as they are; `cycles.csv`: one row
-//! per variant and loop across lags.
+//! per variant and loop across lags; `sequence.csv`: one row per smoothed estimator and scan.
 
 use crate::error::EvalError;
 use crate::measure::basin::BasinReport;
 use crate::measure::report::RunReport;
 use crate::render::outdir::OutputDir;
 
-/// Writes `pairs.csv`, and `cycles.csv` when the run registered across lags.
+/// Writes `pairs.csv`, `cycles.csv` when the run registered across lags, and `sequence.csv`
+/// when it smoothed.
 pub fn write(out: &mut OutputDir, report: &RunReport) -> Result<(), EvalError> {
     out.write("pairs.csv", &pairs_csv(report)?)?;
     if !report.cycles.is_empty() {
         out.write("cycles.csv", &rows_csv(&report.cycles)?)?;
+    }
+    if !report.sequence_scans.is_empty() {
+        out.write("sequence.csv", &rows_csv(&report.sequence_scans)?)?;
     }
     Ok(())
 }

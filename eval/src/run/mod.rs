@@ -18,6 +18,8 @@ pub mod replace;
 pub mod restarts;
 pub mod runner;
 pub mod sampled;
+pub mod sequence;
+pub mod sequence_setup;
 pub mod setup;
 pub mod start_gate;
 pub mod status;

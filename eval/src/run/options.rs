@@ -15,6 +15,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::EstimatesSpec;
 use crate::run::init::InitChain;
+use crate::run::sequence_setup::SequenceMode;
 use crate::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use crate::run::start_gate::StartGate;
 
@@ -44,6 +45,10 @@ pub struct RunOptions {
     /// pairs only, see [`crate::run::lags`]).
     #[serde(default = "one_lag")]
     pub lags: usize,
+    /// Each variant also smoothed over the scan sequence in these modes (`--sequence`; see
+    /// the `sequence` module of `run`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sequence: Vec<SequenceMode>,
 }
 
 /// `lags` of options written before `--lags` existed: consecutive pairs only.
@@ -68,7 +73,8 @@ impl RunOptions {
             .with_start_gate(self.start_gate)
             .with_covariance(self.covariance)
             .with_estimates(estimates)
-            .with_lags(self.lags))
+            .with_lags(self.lags)
+            .with_sequence(&self.sequence))
     }
 }
 

@@ -11,6 +11,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalEstimates;
 use crate::run::init::InitChain;
+use crate::run::sequence_setup::{SequenceMode, SequenceSetup};
 use crate::run::start_gate::{self, StartGate};
 
 /// How the reference is aligned in time with the scans.
@@ -61,6 +62,9 @@ pub struct EvalSetup {
     /// Every variant also registers `k → k+ℓ` for `2 ≤ ℓ ≤ lags` (1: consecutive pairs only;
     /// see [`crate::run::lags`]).
     pub lags: usize,
+    /// Each variant's registrations also smoothed over the scan sequence in these modes, as
+    /// estimators `V+batch`, `V+causal` (made by the `sequence` module of `run`).
+    pub sequence: SequenceSetup,
 }
 
 /// Whether registrations are checked against a global search of their pair.
@@ -92,8 +96,15 @@ impl EvalSetup {
             covariance: CovarianceMode::Off,
             estimates: Vec::new(),
             lags: 1,
+            sequence: SequenceSetup::default(),
         };
         Ok(setup.with_covariance(CovarianceMode::Off))
+    }
+
+    /// The same setup smoothing each variant over the scan sequence in `modes`.
+    pub fn with_sequence(mut self, modes: &[SequenceMode]) -> Self {
+        self.sequence = SequenceSetup::new(modes, &self.variants);
+        self
     }
 
     /// The same setup registering across lags up to `lags`.
@@ -129,6 +140,14 @@ impl EvalSetup {
             .map(|v| v.name())
             .chain(self.estimates.iter().map(|e| e.source.name.as_str()))
             .collect()
+    }
+
+    /// The names of the estimators the report has: the methods, then the smoothed ones
+    /// (`V+batch`, `V+causal`, made from the methods' results when the report is made).
+    pub fn reported_names(&self) -> Vec<&str> {
+        let mut names = self.method_names();
+        names.extend(self.sequence.names());
+        names
     }
 
     /// The same setup with the correspondence gate `gate` of registrations started at the

@@ -1,0 +1,379 @@
+//! `--sequence batch,causal`: each variant's registrations of the run (consecutive pairs and,
+//! with `--lags`, those across lags) smoothed over the whole scan sequence by
+//! [`icp_core::sequence`], as estimators `V+batch` and `V+causal` of their own. Their pairs
+//! carry the fused motion `k → k+1` and its covariance (the marginal of the relative pose), so
+//! every statistic, table, NEES and gate applies to them unchanged; `sequence.csv` has per scan
+//! the fused pose, SOG, COG, ROT and HDG with their σ.
+//!
+//! Only variants whose metric gives a covariance are smoothed (not the point-to-point ones:
+//! their registrations have none to weigh them by).
+//!
+//! A registration the run flagged (any status but ok, loops included) or without a bounded
+//! covariance is left out of the smoother. A step that no registration left spans rests on the
+//! prior alone: it is a failure of the estimator, with that reason. The causal estimator uses
+//! the `Qc` the batch one estimated from the whole run (a vessel would carry it over from
+//! earlier data). Smoothing runs where the report is made (`pipeline::report`), so a
+//! sharded run smooths at the merge, on the same registrations as a single run.
+
+use datasets::{Dataset, ScanPair};
+use icp_core::motion::{wrap_360, wrap_deg};
+use icp_core::sequence::{
+    self, Mode, ProcessNoise, SequenceRegistration, Smoothed, SmootherOptions,
+};
+use icp_core::termination::StopReason;
+use icp_core::BearingSense;
+use icp_core::{Covariance, IcpError, Registration};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::data;
+use crate::run::covariance::closed_form_inflation;
+use crate::run::extended;
+use crate::run::lags::LagRuns;
+use crate::run::runner::{PairRun, Runs};
+use crate::run::sequence_setup::SequenceMode;
+use crate::run::setup::EvalSetup;
+use crate::run::status::PairStatus;
+
+/// One row of `sequence.csv`: a scan's fused state as one smoothed estimator has it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequenceRecord {
+    /// The estimator, `V+batch` or `V+causal`.
+    pub method: String,
+    /// Scan index in the dataset.
+    pub scan: usize,
+    /// Scan time, s.
+    pub time_s: f64,
+    /// Position in the first scan's frame, m.
+    pub x_m: f64,
+    pub y_m: f64,
+    pub x_sigma_m: f64,
+    pub y_sigma_m: f64,
+    /// Heading: the first pair's reference heading (0 without a reference) plus the fused turn
+    /// since the first scan, degrees in [0, 360), clockwise.
+    pub hdg_deg: f64,
+    pub hdg_sigma_deg: f64,
+    /// Speed over ground from the fused twist, m/s.
+    pub sog_mps: f64,
+    pub sog_sigma_mps: f64,
+    /// Course over ground: the heading plus the drift angle of the fused twist, degrees.
+    pub cog_deg: f64,
+    pub cog_sigma_deg: f64,
+    /// Rate of turn, degrees per second, clockwise positive.
+    pub rot_dps: f64,
+    pub rot_sigma_dps: f64,
+    /// The fused twist along the scan frame's x and y, m/s.
+    pub surge_mps: f64,
+    pub sway_mps: f64,
+}
+
+/// What one smoothed estimator did, in `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SequenceSummary {
+    /// The estimator, `V+batch` or `V+causal`.
+    pub method: String,
+    /// Registrations it used (consecutive and across lags), and those left out as flagged or
+    /// without a bounded covariance.
+    pub registrations: usize,
+    pub left_out: usize,
+    /// The prior's process noise `[surge m²/s³, sway m²/s³, yaw rad²/s³]`, estimated from the
+    /// run (expectation–maximisation, the batch smoother's).
+    pub qc: Option<[f64; 3]>,
+    /// Expectation–maximisation rounds.
+    pub em_rounds: usize,
+    /// Why it gave nothing, if so.
+    pub error: Option<String>,
+}
+
+/// The smoothed estimators of a run: per estimator (variant-major, modes in the order given)
+/// its pair runs, and the rows of `sequence.csv` and the summaries.
+pub struct SequenceRuns {
+    pub runs: Vec<Vec<PairRun>>,
+    pub records: Vec<SequenceRecord>,
+    pub summaries: Vec<SequenceSummary>,
+}
+
+/// One smoothed estimator's outputs.
+struct Estimator {
+    runs: Vec<PairRun>,
+    records: Vec<SequenceRecord>,
+    summary: SequenceSummary,
+}
+
+/// Smooths each variant's registrations `runs` of `pairs` (and `lagged`) in every mode of
+/// `setup.sequence`; the variants in parallel, collected in order.
+pub fn smooth(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    setup: &EvalSetup,
+    runs: &Runs,
+    lagged: Option<&LagRuns>,
+) -> SequenceRuns {
+    let scans = run_scans(pairs);
+    let times = times_s(ds, &scans);
+    let per_variant: Vec<Vec<Estimator>> = setup
+        .sequence
+        .variants()
+        .par_iter()
+        .map(|&v| {
+            let inflation = closed_form_inflation(&setup.variants[v].spec().metric);
+            let (regs, left_out) = registrations(setup, pairs, &scans, runs, lagged, v, inflation);
+            let run = Scans {
+                ds,
+                pairs,
+                scans: &scans,
+                times: &times,
+            };
+            smooth_variant(&run, setup, &runs.per_variant[v], v, &regs, left_out)
+        })
+        .collect();
+    let mut out = SequenceRuns {
+        runs: Vec::new(),
+        records: Vec::new(),
+        summaries: Vec::new(),
+    };
+    for e in per_variant.into_iter().flatten() {
+        out.runs.push(e.runs);
+        out.records.extend(e.records);
+        out.summaries.push(e.summary);
+    }
+    out
+}
+
+/// The run's scans and their times.
+struct Scans<'a> {
+    ds: &'a Dataset,
+    pairs: &'a [ScanPair],
+    scans: &'a [usize],
+    times: &'a [f64],
+}
+
+/// Variant `v` (its own runs `own`) smoothed from `regs` in each mode: the batch solve
+/// estimates `Qc`, which the causal one takes.
+fn smooth_variant(
+    run: &Scans<'_>,
+    setup: &EvalSetup,
+    own: &[PairRun],
+    v: usize,
+    regs: &[SequenceRegistration],
+    left_out: usize,
+) -> Vec<Estimator> {
+    let options = SmootherOptions::default();
+    let batch = sequence::smooth(run.times, regs, Mode::Batch, &options);
+    setup
+        .sequence
+        .modes()
+        .iter()
+        .map(|&mode| {
+            let name = format!("{}{}", setup.variants[v].name(), mode.suffix());
+            let out = match (mode, &batch) {
+                (SequenceMode::Batch, _) | (_, Err(_)) => batch.clone(),
+                (SequenceMode::Causal, Ok(b)) => sequence::smooth(
+                    run.times,
+                    regs,
+                    Mode::Causal { lag_scans: 0 },
+                    &SmootherOptions {
+                        process_noise: ProcessNoise::Fixed(b.qc),
+                        ..options
+                    },
+                ),
+            };
+            Estimator {
+                runs: pair_runs(run.pairs, run.scans, own, &out),
+                records: match &out {
+                    Ok(s) => records(run.ds, &name, run.scans, run.times, s),
+                    Err(_) => Vec::new(),
+                },
+                summary: SequenceSummary {
+                    method: name,
+                    registrations: regs.len(),
+                    left_out,
+                    qc: batch.as_ref().ok().map(|b| b.qc),
+                    em_rounds: batch.as_ref().map_or(0, |b| b.em_iterations),
+                    error: out.as_ref().err().map(|e| e.to_string()),
+                },
+            }
+        })
+        .collect()
+}
+
+/// The scans of the run's pairs, in order.
+fn run_scans(pairs: &[ScanPair]) -> Vec<usize> {
+    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
+    scans.sort_unstable();
+    scans.dedup();
+    scans
+}
+
+/// The scans' times: their timestamps where every scan has one, else their index times the
+/// dataset's nominal Δt.
+fn times_s(ds: &Dataset, scans: &[usize]) -> Vec<f64> {
+    let stamped: Option<Vec<f64>> = scans.iter().map(|&k| ds.scans[k].timestamp_s()).collect();
+    stamped.unwrap_or_else(|| scans.iter().map(|&k| k as f64 * ds.dt_s).collect())
+}
+
+/// Variant `v`'s registrations usable by the smoother (status ok, bounded covariance as the
+/// report takes it), in the run's scan numbering, and how many were left out.
+fn registrations(
+    setup: &EvalSetup,
+    pairs: &[ScanPair],
+    scans: &[usize],
+    runs: &Runs,
+    lagged: Option<&LagRuns>,
+    v: usize,
+    inflation: f64,
+) -> (Vec<SequenceRegistration>, usize) {
+    let local = |k: usize| scans.binary_search(&k).ok();
+    let consecutive = pairs.iter().zip(&runs.per_variant[v]);
+    let across = lagged
+        .into_iter()
+        .flat_map(|l| l.pairs.iter().map(|p| &p.pair).zip(&l.runs.per_variant[v]));
+    let mut regs = Vec::new();
+    let mut left_out = 0;
+    for (pair, run) in consecutive.chain(across) {
+        let usable = (|| {
+            if run.status != PairStatus::Ok {
+                return None;
+            }
+            let reg = run.result.as_ref().ok()?;
+            let Covariance::Bounded(cov) =
+                extended::of_registration(reg, setup.covariance, inflation)?
+            else {
+                return None;
+            };
+            Some(SequenceRegistration {
+                source: local(pair.source)?,
+                reference: local(pair.reference)?,
+                t_ref_src: reg.t_ref_src,
+                cov,
+            })
+        })();
+        match usable {
+            Some(r) => regs.push(r),
+            None => left_out += 1,
+        }
+    }
+    (regs, left_out)
+}
+
+/// The estimator's run of each pair: the fused step where a registration spans it, else a
+/// failure saying why.
+fn pair_runs(
+    pairs: &[ScanPair],
+    scans: &[usize],
+    own: &[PairRun],
+    out: &Result<Smoothed, sequence::SequenceError>,
+) -> Vec<PairRun> {
+    pairs
+        .iter()
+        .zip(own)
+        .map(|(pair, own)| {
+            let step = scans.binary_search(&pair.source).unwrap_or(0);
+            let result = match out {
+                Err(e) => Err(IcpError::NoEstimate {
+                    why: format!("the sequence smoother: {e}"),
+                }),
+                Ok(s) if !s.steps[step].supported => Err(IcpError::NoEstimate {
+                    why: "the sequence smoother: no registration left spans the step (prior only)"
+                        .to_owned(),
+                }),
+                Ok(s) => Ok(fused(&s.steps[step], own)),
+            };
+            PairRun {
+                status: match &result {
+                    Ok(_) => PairStatus::Ok,
+                    Err(error) => PairStatus::Failed {
+                        error: error.clone(),
+                    },
+                },
+                result,
+                check: None,
+                init: None,
+                attempts: 0,
+                time_us: None,
+                ambiguity: None,
+                left_out: None,
+            }
+        })
+        .collect()
+}
+
+/// The fused step as a registration; what describes the scans' agreement (pairs, residual,
+/// overlap, conditioning) is the variant's own registration of the pair, where it has one.
+fn fused(step: &sequence::StepEstimate, own: &PairRun) -> Registration {
+    let base = own.result.as_ref().ok();
+    Registration {
+        t_ref_src: step.t_ref_src,
+        iterations: 0,
+        stop: StopReason::Given,
+        n_pairs: base.map_or(0, |r| r.n_pairs),
+        n_unusable: base.map_or(0, |r| r.n_unusable),
+        weight_sum: base.map_or(0.0, |r| r.weight_sum),
+        mean_residual_m: base.map_or(0.0, |r| r.mean_residual_m),
+        conditioning: base.and_then(|r| r.conditioning),
+        overlap: base.map_or(1.0, |r| r.overlap),
+        covariance: Some(Covariance::Bounded(step.cov)),
+        jackknife_covariance: None,
+    }
+}
+
+/// `sequence.csv`'s rows of one estimator.
+fn records(
+    ds: &Dataset,
+    name: &str,
+    scans: &[usize],
+    times: &[f64],
+    s: &Smoothed,
+) -> Vec<SequenceRecord> {
+    // Heading clockwise: a turn θ of the scan frame (counter-clockwise bearings) is −θ.
+    let sign = match ds.bearing_sense {
+        BearingSense::CounterClockwise => -1.0,
+        BearingSense::Clockwise => 1.0,
+    };
+    let hdg0 = match scans {
+        [a, b, ..] => data::motion(ds, *a, *b, times[1] - times[0]).map_or(0.0, |m| m.hdg0_deg),
+        _ => 0.0,
+    };
+    scans
+        .iter()
+        .zip(times)
+        .zip(&s.scans)
+        .map(|((&scan, &time_s), e)| {
+            let c = &e.cov;
+            let (u, v) = (e.twist.x, e.twist.y);
+            let speed = u.hypot(v);
+            let (var_sog, var_drift) = if speed > 0.0 {
+                let (gu, gv) = (u / speed, v / speed);
+                let (du, dv) = (-v / (speed * speed), u / (speed * speed));
+                (
+                    gu * gu * c[(3, 3)] + 2.0 * gu * gv * c[(3, 4)] + gv * gv * c[(4, 4)],
+                    du * du * c[(3, 3)] + 2.0 * du * dv * c[(3, 4)] + dv * dv * c[(4, 4)],
+                )
+            } else {
+                (c[(3, 3)] + c[(4, 4)], 0.0)
+            };
+            let hdg_deg = wrap_360(hdg0 + sign * e.pose.z.to_degrees());
+            let drift_deg = sign * v.atan2(u).to_degrees();
+            SequenceRecord {
+                method: name.to_owned(),
+                scan,
+                time_s,
+                x_m: e.pose.x,
+                y_m: e.pose.y,
+                x_sigma_m: c[(0, 0)].max(0.0).sqrt(),
+                y_sigma_m: c[(1, 1)].max(0.0).sqrt(),
+                hdg_deg,
+                hdg_sigma_deg: c[(2, 2)].max(0.0).sqrt().to_degrees(),
+                sog_mps: speed,
+                sog_sigma_mps: var_sog.max(0.0).sqrt(),
+                cog_deg: wrap_360(hdg_deg + wrap_deg(drift_deg)),
+                // The heading and the drift angle, taken as independent.
+                cog_sigma_deg: (c[(2, 2)] + var_drift).max(0.0).sqrt().to_degrees(),
+                rot_dps: sign * e.twist.z.to_degrees(),
+                rot_sigma_dps: c[(5, 5)].max(0.0).sqrt().to_degrees(),
+                surge_mps: u,
+                sway_mps: v,
+            }
+        })
+        .collect()
+}

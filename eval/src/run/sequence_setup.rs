@@ -1,0 +1,87 @@
+//! What `--sequence` asks for: the smoothers' modes and the estimators they add (see
+//! the `sequence` module, which makes them).
+
+use icp_core::Registrar;
+use serde::{Deserialize, Serialize};
+
+/// A smoother's mode on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum SequenceMode {
+    /// Every scan from the whole run.
+    Batch,
+    /// Every scan from the scans up to it only (what a vessel has live).
+    Causal,
+}
+
+impl SequenceMode {
+    /// The suffix of its estimators' names: `V+batch`, `V+causal`.
+    pub fn suffix(self) -> &'static str {
+        match self {
+            Self::Batch => "+batch",
+            Self::Causal => "+causal",
+        }
+    }
+}
+
+/// The smoothed estimators of a run: the modes, the variants smoothed (those whose metric has
+/// a covariance: not point-to-point), and the estimators' names (variant-major).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SequenceSetup {
+    modes: Vec<SequenceMode>,
+    variants: Vec<usize>,
+    names: Vec<String>,
+}
+
+impl SequenceSetup {
+    /// Each of `variants` whose metric gives a covariance in each of `modes` (a mode given
+    /// twice counts once).
+    pub fn new(modes: &[SequenceMode], variants: &[Box<dyn Registrar>]) -> Self {
+        let mut unique: Vec<SequenceMode> = Vec::new();
+        for m in modes {
+            if !unique.contains(m) {
+                unique.push(*m);
+            }
+        }
+        let smoothed: Vec<usize> = (0..variants.len())
+            .filter(|&v| variants[v].spec().metric.kind != "point_to_point")
+            .collect();
+        let names = smoothed
+            .iter()
+            .flat_map(|&v| {
+                unique
+                    .iter()
+                    .map(move |m| format!("{}{}", variants[v].name(), m.suffix()))
+            })
+            .collect();
+        Self {
+            variants: if unique.is_empty() {
+                Vec::new()
+            } else {
+                smoothed
+            },
+            modes: unique,
+            names,
+        }
+    }
+
+    /// The variants smoothed (indices into the setup's variants).
+    pub fn variants(&self) -> &[usize] {
+        &self.variants
+    }
+
+    /// The modes.
+    pub fn modes(&self) -> &[SequenceMode] {
+        &self.modes
+    }
+
+    /// The estimators' names, variant-major.
+    pub fn names(&self) -> impl Iterator<Item = &str> {
+        self.names.iter().map(String::as_str)
+    }
+
+    /// True when nothing is smoothed.
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+}

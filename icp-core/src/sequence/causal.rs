@@ -1,0 +1,303 @@
+//! The causal smoother: scan k is estimated from the factors of scans ≤ k (+ a fixed lag) in a
+//! sliding window. When a scan leaves the window, the factors on it are replaced by their
+//! Gaussian marginal on the remaining scans (Schur complement at the current estimate), so the
+//! window's solve is the batch solve over the scans seen so far for a linear model.
+
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Vector3};
+
+use super::factors::{self, Matrix6};
+use super::system::{Estimates, Layout, Model, Sink};
+use super::{ScanEstimate, SequenceError, SmootherOptions, StepEstimate};
+
+/// H and g of a window, dense.
+struct DenseSystem {
+    h: DMatrix<f64>,
+    g: DVector<f64>,
+}
+
+impl DenseSystem {
+    fn zeros(dim: usize) -> Self {
+        Self {
+            h: DMatrix::zeros(dim, dim),
+            g: DVector::zeros(dim),
+        }
+    }
+}
+
+impl Sink for DenseSystem {
+    fn add_h(&mut self, bi: usize, bj: usize, m: &Matrix3<f64>) {
+        let mut view = self.h.fixed_view_mut::<3, 3>(3 * bi, 3 * bj);
+        view += m;
+        if bi != bj {
+            let mut view = self.h.fixed_view_mut::<3, 3>(3 * bj, 3 * bi);
+            view += m.transpose();
+        }
+    }
+
+    fn add_g(&mut self, bi: usize, v: &Vector3<f64>) {
+        let mut view = self.g.fixed_rows_mut::<3>(3 * bi);
+        view += v;
+    }
+}
+
+/// The marginal of the factors on the scans that left the window: the cost
+/// `½ δᵀHδ + gᵀδ` of `δ = x ⊖ x̄` over the scans `first..first + len`, linearised at `x̄`.
+struct MarginalPrior {
+    layout: Layout,
+    first: usize,
+    at: Estimates,
+    h: DMatrix<f64>,
+    g: DVector<f64>,
+}
+
+impl MarginalPrior {
+    /// Adds the prior, at `est`, into `sys` laid out as `window`.
+    fn add(&self, model: &Model<'_>, est: &Estimates, window: &Layout, sys: &mut DenseSystem) {
+        let len = self.at.poses.len();
+        let mut map = vec![0; self.layout.dim() / 3];
+        let mut delta = DVector::zeros(self.layout.dim());
+        for i in 0..len {
+            let state = self.first + i;
+            if let Some(b) = self.layout.pose(state) {
+                map[b] = window
+                    .pose(state)
+                    .expect("the window holds the prior's scans");
+                let d = factors::pose_minus(model.geometry, &est.poses[state], &self.at.poses[i]);
+                delta.fixed_rows_mut::<3>(3 * b).copy_from(&d);
+            }
+            if let Some(b) = self.layout.twist(state) {
+                map[b] = window
+                    .twist(state)
+                    .expect("the window holds the prior's scans");
+                let d = est.twists[state] - self.at.twists[i];
+                delta.fixed_rows_mut::<3>(3 * b).copy_from(&d);
+            }
+        }
+        let grad = &self.h * &delta + &self.g;
+        for (bi, &wi) in map.iter().enumerate() {
+            sys.add_g(wi, &grad.fixed_rows::<3>(3 * bi).into_owned());
+            for (bj, &wj) in map.iter().enumerate() {
+                let m: Matrix3<f64> = self.h.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned();
+                let mut view = sys.h.fixed_view_mut::<3, 3>(3 * wi, 3 * wj);
+                view += m;
+            }
+        }
+    }
+}
+
+/// Runs the causal smoother over every scan; scan j is reported from the window at scan
+/// `max(j + lag_scans, 1)`, step `j → j+1` from the window at scan `j + 1 + lag_scans` (or the
+/// last scan, for the run's end).
+pub(crate) fn run(
+    model: &Model<'_>,
+    mut est: Estimates,
+    lag_scans: usize,
+    options: &SmootherOptions,
+) -> Result<(Vec<ScanEstimate>, Vec<StepEstimate>), SequenceError> {
+    let n = est.poses.len();
+    let max_lag = model
+        .regs
+        .iter()
+        .map(|r| r.reference - r.source)
+        .max()
+        .unwrap_or(1);
+    let keep = max_lag.max(lag_scans + 1);
+    let mut scans: Vec<Option<ScanEstimate>> = vec![None; n];
+    let mut steps: Vec<Option<StepEstimate>> = vec![None; n - 1];
+    let mut first = 0;
+    let mut marginal: Option<MarginalPrior> = None;
+    for k in 1..n {
+        predict(model, &mut est, k);
+        let layout = Layout::new(first, k - first + 1);
+        let sys = solve_window(
+            model,
+            &mut est,
+            &layout,
+            marginal.as_ref(),
+            first,
+            k,
+            options,
+        )?;
+        let cov = Cholesky::new(sys.h.clone())
+            .ok_or(SequenceError::Factorisation {
+                what: "causal window",
+            })?
+            .inverse();
+        let last = k == n - 1;
+        for j in first..=k {
+            if scans[j].is_none() && (j + lag_scans <= k || last) {
+                scans[j] = Some(ScanEstimate {
+                    pose: est.poses[j],
+                    twist: est.twists[j],
+                    cov: block(&cov, &layout, j, j),
+                });
+            }
+            if j > first && steps[j - 1].is_none() && (j + lag_scans <= k || last) {
+                let (own_a, own_b) = (
+                    block(&cov, &layout, j - 1, j - 1),
+                    block(&cov, &layout, j, j),
+                );
+                let cross = block(&cov, &layout, j - 1, j);
+                let mut s = super::step(model, &est, j - 1, &own_a, &own_b, &cross);
+                s.supported = model
+                    .regs
+                    .iter()
+                    .any(|r| r.source < j && r.reference >= j && r.reference <= k);
+                steps[j - 1] = Some(s);
+            }
+        }
+        while k + 1 - first > keep {
+            marginal = Some(marginalise(model, &est, marginal.as_ref(), first, k)?);
+            first += 1;
+        }
+    }
+    Ok((
+        scans
+            .into_iter()
+            .map(|s| s.expect("every scan is reported"))
+            .collect(),
+        steps
+            .into_iter()
+            .map(|s| s.expect("every step is reported"))
+            .collect(),
+    ))
+}
+
+/// Starts scan k from k−1's twist held over Δt (or the registration k−1 → k where there is one).
+fn predict(model: &Model<'_>, est: &mut Estimates, k: usize) {
+    let reg = model
+        .regs
+        .iter()
+        .find(|r| r.source == k - 1 && r.reference == k);
+    let xi = match reg {
+        Some(r) => {
+            let motion = super::inverse_params(model.geometry, &r.z);
+            factors::log_between(model.geometry, &Vector3::zeros(), &motion).0
+        }
+        None => est.twists[k - 1] * model.dt_s(k - 1),
+    };
+    est.poses[k] = factors::exp_from(model.geometry, &est.poses[k - 1], &xi);
+    est.twists[k] = if reg.is_some() {
+        xi / model.dt_s(k - 1)
+    } else {
+        est.twists[k - 1]
+    };
+}
+
+/// Linearises the window's factors (priors and registrations within `first..=k`, and the
+/// marginal of what left) at `est`.
+fn linearise(
+    model: &Model<'_>,
+    est: &Estimates,
+    layout: &Layout,
+    marginal: Option<&MarginalPrior>,
+    first: usize,
+    k: usize,
+) -> DenseSystem {
+    let mut sys = DenseSystem::zeros(layout.dim());
+    if first == 0 {
+        model.add_twist0(est, layout, &mut sys);
+    }
+    for j in first..k {
+        model.add_prior(est, layout, j, &mut sys);
+    }
+    for (i, r) in model.regs.iter().enumerate() {
+        if r.source >= first && r.reference <= k {
+            model.add_reg(est, layout, i, &mut sys);
+        }
+    }
+    if let Some(m) = marginal {
+        m.add(model, est, layout, &mut sys);
+    }
+    sys
+}
+
+fn solve_window(
+    model: &Model<'_>,
+    est: &mut Estimates,
+    layout: &Layout,
+    marginal: Option<&MarginalPrior>,
+    first: usize,
+    k: usize,
+    options: &SmootherOptions,
+) -> Result<DenseSystem, SequenceError> {
+    for _ in 0..options.max_iterations {
+        let sys = linearise(model, est, layout, marginal, first, k);
+        let chol = Cholesky::new(sys.h.clone()).ok_or(SequenceError::Factorisation {
+            what: "causal window",
+        })?;
+        let delta = chol.solve(&(-&sys.g));
+        if delta.iter().any(|d| !d.is_finite()) {
+            return Err(SequenceError::Factorisation {
+                what: "causal step",
+            });
+        }
+        layout.apply(model.geometry, est, delta.as_slice());
+        if delta.iter().all(|d| d.abs() <= options.tolerance) {
+            break;
+        }
+    }
+    Ok(linearise(model, est, layout, marginal, first, k))
+}
+
+/// Replaces the factors on scan `first` (its prior to `first + 1`, its registrations, and the
+/// current marginal) by their marginal on scans `first + 1..=k`.
+fn marginalise(
+    model: &Model<'_>,
+    est: &Estimates,
+    marginal: Option<&MarginalPrior>,
+    first: usize,
+    k: usize,
+) -> Result<MarginalPrior, SequenceError> {
+    let layout = Layout::new(first, k - first + 1);
+    let mut sys = DenseSystem::zeros(layout.dim());
+    if first == 0 {
+        model.add_twist0(est, &layout, &mut sys);
+    }
+    model.add_prior(est, &layout, first, &mut sys);
+    for (i, r) in model.regs.iter().enumerate() {
+        if r.source == first {
+            model.add_reg(est, &layout, i, &mut sys);
+        }
+    }
+    if let Some(m) = marginal {
+        m.add(model, est, &layout, &mut sys);
+    }
+    let gone = 3 * layout.state_blocks(first).iter().flatten().count();
+    let dim = layout.dim();
+    let rest = dim - gone;
+    let h_ss = sys.h.view((0, 0), (gone, gone)).into_owned();
+    let h_rs = sys.h.view((gone, 0), (rest, gone)).into_owned();
+    let chol = Cholesky::<f64, Dyn>::new(h_ss).ok_or(SequenceError::Factorisation {
+        what: "marginalisation",
+    })?;
+    let h_ss_inv_h_sr = chol.solve(&h_rs.transpose());
+    let h = sys.h.view((gone, gone), (rest, rest)) - &h_rs * &h_ss_inv_h_sr;
+    let g = sys.g.rows(gone, rest) - h_ss_inv_h_sr.transpose() * sys.g.rows(0, gone);
+    let len = k - first;
+    Ok(MarginalPrior {
+        layout: Layout::new(first + 1, len),
+        first: first + 1,
+        at: Estimates {
+            poses: est.poses[first + 1..=k].to_vec(),
+            twists: est.twists[first + 1..=k].to_vec(),
+        },
+        h: (&h + h.transpose()) * 0.5,
+        g,
+    })
+}
+
+/// The `[pose; twist]` covariance block of states `a` (rows) and `b` (columns) from the
+/// window's `cov`.
+fn block(cov: &DMatrix<f64>, layout: &Layout, a: usize, b: usize) -> Matrix6 {
+    let mut out = Matrix6::zeros();
+    for (sa, ba) in layout.state_blocks(a).into_iter().enumerate() {
+        let Some(ba) = ba else { continue };
+        for (sb, bb) in layout.state_blocks(b).into_iter().enumerate() {
+            let Some(bb) = bb else { continue };
+            out.fixed_view_mut::<3, 3>(3 * sa, 3 * sb)
+                .copy_from(&cov.fixed_view::<3, 3>(3 * ba, 3 * bb));
+        }
+    }
+    out
+}

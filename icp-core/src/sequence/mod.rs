@@ -1,0 +1,427 @@
+//! Vessel motion from the whole scan sequence: a smoother over every scan's pose and body twist
+//! (issue 35).
+//!
+//! # Model
+//! The state of scan k is its pose `T_k = t_world_body` as `(x m, y m, θ rad)` (scan 0 is the
+//! identity and fixes the frame) and its body twist `ϖ_k = (surge m/s, sway m/s, yaw rad/s)`.
+//! Two kinds of factor:
+//! - each registration `source → reference` at any lag, whose `t_ref_src` parameters
+//!   `(x, y, θ)` are predicted by `T_reference⁻¹ T_source` (the frames of
+//!   [`crate::motion`]), with the registration's 3×3 covariance, through a Huber loss on the
+//!   Mahalanobis distance (threshold [`SmootherOptions::huber_k`]);
+//! - between consecutive scans, the white-noise-on-acceleration prior of Barfoot, Tong &
+//!   Särkkä (2014) as in STEAM: `e = [Log(T_k⁻¹T_k+1) − Δt·ϖ_k ; ϖ_k+1 − ϖ_k]` with covariance
+//!   `Q = [[Δt³/3, Δt²/2], [Δt²/2, Δt]] ⊗ Qc`, `Qc = diag(q_surge, q_sway, q_yaw)`, over each
+//!   pair's actual Δt (a missing scan is bridged by a longer Δt, whose Q grows as Δt³).
+//!
+//! `Qc` is estimated from the data by expectation–maximisation (Wong et al. 2020): smooth,
+//! then set each axis' `q` to the maximum-likelihood value given the expected squared prior
+//! residuals (which include the smoothed covariance), until it settles; see [`ProcessNoise`].
+//!
+//! # Modes
+//! [`Mode::Batch`] solves every scan at once by Gauss–Newton with faer's sparse Cholesky.
+//! [`Mode::Causal`] estimates scan k from scans ≤ k (+ a fixed lag) only, in a sliding window
+//! whose oldest scan is marginalised out (exact for a linear model: the last scan's estimate
+//! equals the batch one's). Both give each scan's pose, twist and marginal covariance and each
+//! consecutive pair's fused `t_ref_src` with its covariance (the marginal of the relative pose).
+//!
+//! The causal mode uses the `Qc` it is given: estimating it needs the whole run, so callers
+//! estimate it once in batch (see [`Smoothed::qc`]) or carry it over from earlier data.
+//!
+//! # Gaps
+//! Registrations left out by the caller (flagged ones) leave their steps to the prior and the
+//! registrations at other lags; a step no registration spans is marked
+//! [`StepEstimate::supported`] `false`, and its covariance is the prior's.
+
+mod band;
+mod batch;
+mod causal;
+mod factors;
+mod noise;
+mod system;
+
+use nalgebra::{Cholesky, Isometry2, Matrix3, Vector2, Vector3};
+
+/// The 6×6 covariance of a scan's `[pose; twist]`.
+pub type StateCovariance = nalgebra::SMatrix<f64, 6, 6>;
+use system::{Estimates, Layout, Model, Reg};
+
+/// Errors of the smoother's input and solve.
+#[derive(Debug, thiserror::Error, Clone, PartialEq)]
+pub enum SequenceError {
+    /// Fewer than two scans: nothing moves.
+    #[error("a sequence needs at least two scans, got {scans}")]
+    TooFewScans { scans: usize },
+    /// A timestamp that is NaN or infinite.
+    #[error("scan {index}: non-finite time {time_s}")]
+    NonFiniteTime { index: usize, time_s: f64 },
+    /// Timestamps not strictly increasing (a duplicate or a step back).
+    #[error("scan {index}: time {time_s} s is not after the previous scan's {previous_s} s")]
+    NonMonotonicTime {
+        index: usize,
+        previous_s: f64,
+        time_s: f64,
+    },
+    /// No registration left (none given, or all flagged).
+    #[error("no registration to smooth (all pairs flagged or none given)")]
+    NoRegistrations,
+    /// A registration that cannot be used.
+    #[error("registration {index}: {why}")]
+    BadRegistration { index: usize, why: &'static str },
+    /// An option out of range.
+    #[error("option {name}: {why}")]
+    BadOption {
+        name: &'static str,
+        why: &'static str,
+    },
+    /// The normal equations could not be factorised (the problem is not observable).
+    #[error("the smoother's normal equations failed at the {what} stage")]
+    Factorisation { what: &'static str },
+}
+
+/// How poses compose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Geometry {
+    /// Poses on SE(2): body-frame twists, rotations composed (the vessel's case).
+    Se2,
+    /// `(x, y, θ)` as a vector space, with the body frame the world's: the model is then linear
+    /// and Gaussian, so it can be checked against a Kalman/RTS smoother.
+    Linear,
+}
+
+/// Where the prior's `Qc` comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ProcessNoise {
+    /// Expectation–maximisation from the data, until every axis changes by less than
+    /// `tolerance` (relative) or after `max_iterations` rounds.
+    Estimate {
+        max_iterations: usize,
+        tolerance: f64,
+    },
+    /// Given: `[surge m²/s³, sway m²/s³, yaw rad²/s³]`.
+    Fixed([f64; 3]),
+}
+
+/// The smoother's options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmootherOptions {
+    pub geometry: Geometry,
+    pub process_noise: ProcessNoise,
+    /// Huber threshold on a registration's Mahalanobis distance. Default 3.37 = √χ²₃(0.99): a
+    /// registration as good as its covariance says keeps full weight 99 % of the time.
+    pub huber_k: f64,
+    /// Gauss–Newton iterations at most per solve.
+    pub max_iterations: usize,
+    /// Gauss–Newton stops when no state moves by more than this (m, rad, m/s, rad/s).
+    pub tolerance: f64,
+    /// What is known of scan 0's twist, if anything (a vessel leaving the quay at rest); none
+    /// by default.
+    pub initial_twist: Option<TwistPrior>,
+}
+
+/// A Gaussian on scan 0's twist `(surge m/s, sway m/s, yaw rad/s)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwistPrior {
+    pub mean: Vector3<f64>,
+    pub cov: Matrix3<f64>,
+}
+
+impl Default for SmootherOptions {
+    fn default() -> Self {
+        Self {
+            geometry: Geometry::Se2,
+            process_noise: ProcessNoise::Estimate {
+                max_iterations: 50,
+                tolerance: 1e-3,
+            },
+            huber_k: 3.37,
+            max_iterations: 20,
+            tolerance: 1e-10,
+            initial_twist: None,
+        }
+    }
+}
+
+/// Batch or causal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Every scan from the whole run.
+    Batch,
+    /// Scan k from scans ≤ k + `lag_scans` only.
+    Causal { lag_scans: usize },
+}
+
+/// One registration given to the smoother: `t_ref_src` of `source → reference` (scan indices,
+/// `source < reference`) and the covariance of its `(x m, y m, θ rad)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SequenceRegistration {
+    pub source: usize,
+    pub reference: usize,
+    pub t_ref_src: Isometry2<f64>,
+    pub cov: Matrix3<f64>,
+}
+
+/// One scan's estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScanEstimate {
+    /// `(x m, y m, θ rad)` of `t_scan0_scan`.
+    pub pose: Vector3<f64>,
+    /// `(surge m/s, sway m/s, yaw rad/s)` in the scan's frame.
+    pub twist: Vector3<f64>,
+    /// Marginal covariance of `[pose; twist]` (zero for scan 0's pose, which is the frame).
+    pub cov: StateCovariance,
+}
+
+/// The fused motion of one consecutive pair `k → k+1`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepEstimate {
+    /// `t_ref_src` of the pair (the inverse of the vessel's motion, as a registration gives).
+    pub t_ref_src: Isometry2<f64>,
+    /// Covariance of its `(x m, y m, θ rad)`: the marginal of the relative pose.
+    pub cov: Matrix3<f64>,
+    /// Whether any registration spans the step (else it rests on the prior alone).
+    pub supported: bool,
+}
+
+/// What the smoother gives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Smoothed {
+    pub scans: Vec<ScanEstimate>,
+    pub steps: Vec<StepEstimate>,
+    /// The `Qc` used: `[surge m²/s³, sway m²/s³, yaw rad²/s³]`.
+    pub qc: [f64; 3],
+    /// Expectation–maximisation rounds (0 for a fixed `Qc`).
+    pub em_iterations: usize,
+}
+
+/// Smooths the scans at `times_s` from `registrations` (the unflagged ones) in `mode`.
+pub fn smooth(
+    times_s: &[f64],
+    registrations: &[SequenceRegistration],
+    mode: Mode,
+    options: &SmootherOptions,
+) -> Result<Smoothed, SequenceError> {
+    validate_times(times_s)?;
+    validate_options(options)?;
+    let regs = registrations
+        .iter()
+        .enumerate()
+        .map(|(i, r)| to_reg(i, r, times_s.len()))
+        .collect::<Result<Vec<_>, _>>()?;
+    if regs.is_empty() {
+        return Err(SequenceError::NoRegistrations);
+    }
+    let init = initial_estimates(options.geometry, times_s, &regs);
+    let (qc, em_iterations) = match options.process_noise {
+        ProcessNoise::Fixed(qc) => (qc, 0),
+        ProcessNoise::Estimate {
+            max_iterations,
+            tolerance,
+        } => noise::estimate(
+            options,
+            times_s,
+            &regs,
+            init.clone(),
+            noise::initial_qc(options.geometry, times_s, &regs),
+            max_iterations,
+            tolerance,
+        )?,
+    };
+    let model = Model {
+        geometry: options.geometry,
+        times_s,
+        regs: &regs,
+        qc,
+        huber_k: options.huber_k,
+        twist0: twist0(options)?,
+    };
+    let (scans, steps) = match mode {
+        Mode::Batch => {
+            let (est, own, cross) = noise::batch_with_marginals(&model, init, options)?;
+            outputs(&model, &est, &own, &cross)
+        }
+        Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,
+    };
+    Ok(Smoothed {
+        scans,
+        steps,
+        qc,
+        em_iterations,
+    })
+}
+
+fn validate_times(times_s: &[f64]) -> Result<(), SequenceError> {
+    if times_s.len() < 2 {
+        return Err(SequenceError::TooFewScans {
+            scans: times_s.len(),
+        });
+    }
+    if let Some((index, &time_s)) = times_s.iter().enumerate().find(|(_, t)| !t.is_finite()) {
+        return Err(SequenceError::NonFiniteTime { index, time_s });
+    }
+    match times_s.windows(2).position(|w| w[1] <= w[0]) {
+        Some(i) => Err(SequenceError::NonMonotonicTime {
+            index: i + 1,
+            previous_s: times_s[i],
+            time_s: times_s[i + 1],
+        }),
+        None => Ok(()),
+    }
+}
+
+fn validate_options(o: &SmootherOptions) -> Result<(), SequenceError> {
+    let bad = |name, why| Err(SequenceError::BadOption { name, why });
+    if !(o.huber_k.is_finite() && o.huber_k > 0.0) {
+        return bad("huber_k", "must be finite and positive");
+    }
+    if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
+        return bad("tolerance", "must be finite and positive");
+    }
+    match o.process_noise {
+        ProcessNoise::Fixed(qc) if qc.iter().any(|q| !(q.is_finite() && *q > 0.0)) => {
+            bad("process_noise", "each Qc must be finite and positive")
+        }
+        ProcessNoise::Estimate { tolerance, .. } if !(tolerance.is_finite() && tolerance > 0.0) => {
+            bad(
+                "process_noise",
+                "the EM tolerance must be finite and positive",
+            )
+        }
+        _ => Ok(()),
+    }
+}
+
+fn to_reg(index: usize, r: &SequenceRegistration, n: usize) -> Result<Reg, SequenceError> {
+    let bad = |why| Err(SequenceError::BadRegistration { index, why });
+    if r.source >= r.reference {
+        return bad("its source must come before its reference");
+    }
+    if r.reference >= n {
+        return bad("its reference is past the last scan");
+    }
+    let z = params(&r.t_ref_src);
+    if z.iter().chain(r.cov.iter()).any(|v| !v.is_finite()) {
+        return bad("non-finite transform or covariance");
+    }
+    let sym = (r.cov + r.cov.transpose()) * 0.5;
+    let Some(chol) = Cholesky::new(sym) else {
+        return bad("covariance not positive definite");
+    };
+    Ok(Reg {
+        source: r.source,
+        reference: r.reference,
+        z,
+        info: chol.inverse(),
+    })
+}
+
+/// The mean and information of the option's prior on scan 0's twist.
+fn twist0(options: &SmootherOptions) -> Result<Option<system::Gaussian3>, SequenceError> {
+    let Some(p) = options.initial_twist else {
+        return Ok(None);
+    };
+    let bad = Err(SequenceError::BadOption {
+        name: "initial_twist",
+        why: "needs a finite mean and a positive-definite covariance",
+    });
+    if p.mean.iter().chain(p.cov.iter()).any(|v| !v.is_finite()) {
+        return bad;
+    }
+    match Cholesky::new((p.cov + p.cov.transpose()) * 0.5) {
+        Some(c) => Ok(Some((p.mean, c.inverse()))),
+        None => bad,
+    }
+}
+
+/// `(x, y, θ)` of a transform.
+fn params(t: &Isometry2<f64>) -> Vector3<f64> {
+    let v = t.translation.vector;
+    Vector3::new(v.x, v.y, t.rotation.angle())
+}
+
+/// Starting point: chain the shortest registration out of each scan; twists from it.
+fn initial_estimates(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> Estimates {
+    let n = times_s.len();
+    let mut twists = vec![None; n];
+    for k in 0..n - 1 {
+        let best = regs
+            .iter()
+            .filter(|r| r.source == k)
+            .min_by_key(|r| r.reference);
+        if let Some(r) = best {
+            // The vessel's motion is the inverse of t_ref_src: pose_src = 0, pose_ref = z⁻¹.
+            let zero = Vector3::zeros();
+            let motion = inverse_params(geometry, &r.z);
+            let (xi, _, _) = factors::log_between(geometry, &zero, &motion);
+            twists[k] = Some(xi / (times_s[r.reference] - times_s[k]));
+        }
+    }
+    let mut last = twists.iter().flatten().next().copied().unwrap_or_default();
+    let twists: Vec<Vector3<f64>> = twists
+        .into_iter()
+        .map(|t| {
+            last = t.unwrap_or(last);
+            last
+        })
+        .collect();
+    let mut poses = vec![Vector3::zeros(); n];
+    for k in 0..n - 1 {
+        let xi = twists[k] * (times_s[k + 1] - times_s[k]);
+        poses[k + 1] = factors::exp_from(geometry, &poses[k], &xi);
+    }
+    Estimates { poses, twists }
+}
+
+/// The parameters of the inverse of the transform whose parameters are `z`.
+fn inverse_params(geometry: Geometry, z: &Vector3<f64>) -> Vector3<f64> {
+    let (t, _, _) = factors::relative(geometry, &Vector3::zeros(), z);
+    t
+}
+
+/// The scans' and steps' outputs from estimates and marginals (`own[k]`, `cross[k] = Σ_k,k+1`).
+fn outputs(
+    model: &Model<'_>,
+    est: &Estimates,
+    own: &[StateCovariance],
+    cross: &[StateCovariance],
+) -> (Vec<ScanEstimate>, Vec<StepEstimate>) {
+    let scans = (0..est.poses.len())
+        .map(|k| ScanEstimate {
+            pose: est.poses[k],
+            twist: est.twists[k],
+            cov: own[k],
+        })
+        .collect();
+    let steps = (0..est.poses.len() - 1)
+        .map(|k| step(model, est, k, &own[k], &own[k + 1], &cross[k]))
+        .collect();
+    (scans, steps)
+}
+
+/// The fused `t_ref_src` of `k → k+1` and its covariance from the joint marginal.
+fn step(
+    model: &Model<'_>,
+    est: &Estimates,
+    k: usize,
+    own_k: &StateCovariance,
+    own_k1: &StateCovariance,
+    cross: &StateCovariance,
+) -> StepEstimate {
+    let (z, j_src, j_ref) = factors::relative(model.geometry, &est.poses[k], &est.poses[k + 1]);
+    let p = |m: &StateCovariance| -> Matrix3<f64> { m.fixed_view::<3, 3>(0, 0).into_owned() };
+    let c = p(cross);
+    let cov = j_src * p(own_k) * j_src.transpose()
+        + j_src * c * j_ref.transpose()
+        + j_ref * c.transpose() * j_src.transpose()
+        + j_ref * p(own_k1) * j_ref.transpose();
+    StepEstimate {
+        t_ref_src: Isometry2::new(Vector2::new(z.x, z.y), z.z),
+        cov: (cov + cov.transpose()) * 0.5,
+        supported: model.regs.iter().any(|r| r.source <= k && r.reference > k),
+    }
+}
+
+/// Layout of every scan of a run.
+fn full_layout(n_states: usize) -> Layout {
+    Layout::new(0, n_states)
+}

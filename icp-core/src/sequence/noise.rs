@@ -1,0 +1,220 @@
+//! The prior's process noise `Qc` from the data: expectation–maximisation (Wong, Yoon,
+//! Schoellig & Barfoot 2020, "Variational inference with parameter learning applied to vehicle
+//! trajectory estimation"), with the batch smoother as the E-step.
+
+use nalgebra::SMatrix;
+
+use super::batch::{self, SparseSystem};
+use super::factors::{self, Matrix6};
+use super::system::{Estimates, Layout, Model, Reg};
+use super::{full_layout, Geometry, SequenceError, SmootherOptions};
+
+/// Smallest `q` an axis may take, so that `Q` stays invertible when an axis does not move.
+const Q_FLOOR: f64 = 1e-12;
+
+/// The batch solve at `model`'s `Qc` from `init`, with every scan's marginal covariance and
+/// the cross-covariance of consecutive scans.
+pub(crate) fn batch_with_marginals(
+    model: &Model<'_>,
+    est: Estimates,
+    options: &SmootherOptions,
+) -> Result<(Estimates, Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
+    let layout = full_layout(est.poses.len());
+    let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
+    solve_with_marginals(model, est, &mut sys, &layout, options)
+}
+
+/// [`batch_with_marginals`] on the system `sys` already laid out (its symbolic factorisation
+/// made once for every round of the estimation).
+fn solve_with_marginals(
+    model: &Model<'_>,
+    mut est: Estimates,
+    sys: &mut SparseSystem,
+    layout: &Layout,
+    options: &SmootherOptions,
+) -> Result<(Estimates, Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
+    batch::solve(
+        model,
+        &mut est,
+        sys,
+        layout,
+        options.max_iterations,
+        options.tolerance,
+    )?;
+    let (own, cross) = batch::marginals(sys, layout, est.poses.len())?;
+    Ok((est, own, cross))
+}
+
+/// A first `Qc` from the data: per axis, the mean squared change of the lag-1 registrations'
+/// twists over the time between them (measurement noise included, so it starts high).
+pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [f64; 3] {
+    let n = times_s.len();
+    let mut twist = vec![None; n];
+    for r in regs.iter().filter(|r| r.reference == r.source + 1) {
+        let motion = super::inverse_params(geometry, &r.z);
+        let (xi, _, _) = factors::log_between(geometry, &nalgebra::Vector3::zeros(), &motion);
+        twist[r.source] = Some(xi / (times_s[r.reference] - times_s[r.source]));
+    }
+    let mut sum = [0.0; 3];
+    let mut count = 0usize;
+    for k in 0..n.saturating_sub(2) {
+        if let (Some(a), Some(b)) = (twist[k], twist[k + 1]) {
+            let dt = 0.5 * (times_s[k + 2] - times_s[k]);
+            for (axis, s) in sum.iter_mut().enumerate() {
+                *s += (b[axis] - a[axis]).powi(2) / dt;
+            }
+            count += 1;
+        }
+    }
+    if count == 0 {
+        return [1.0; 3];
+    }
+    sum.map(|s| (s / count as f64).max(Q_FLOOR))
+}
+
+/// Expectation–maximisation of `Qc` from `qc0`, accelerated by SQUAREM (Varadhan & Roland
+/// 2008) on `ln Qc`: two EM rounds give the step `r` and its change `v`, the extrapolation
+/// `ln q₀ − 2αr + α²v` (`α = −‖r‖/‖v‖`, at most −1: no slower than plain EM) is followed by
+/// one EM round, which keeps every `q` an M-step's value. Stops when a round moves no axis by
+/// more than `tolerance` (relative) or after `max_rounds` EM rounds; returns `Qc` and the EM
+/// rounds taken.
+pub(crate) fn estimate(
+    options: &SmootherOptions,
+    times_s: &[f64],
+    regs: &[Reg],
+    est: Estimates,
+    qc0: [f64; 3],
+    max_rounds: usize,
+    tolerance: f64,
+) -> Result<([f64; 3], usize), SequenceError> {
+    let mut em = Em {
+        options,
+        times_s,
+        regs,
+        layout: full_layout(times_s.len()),
+        sys: None,
+        est,
+        rounds: 0,
+        twist0: super::twist0(options)?,
+    };
+    let settled =
+        |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance * y);
+    let mut q0 = qc0;
+    while em.rounds < max_rounds {
+        let q1 = em.round(q0)?;
+        if settled(&q1, &q0) || em.rounds + 2 > max_rounds {
+            return Ok((q1, em.rounds));
+        }
+        let q2 = em.round(q1)?;
+        let (l0, l1, l2) = (q0.map(f64::ln), q1.map(f64::ln), q2.map(f64::ln));
+        let r: Vec<f64> = (0..3).map(|a| l1[a] - l0[a]).collect();
+        let v: Vec<f64> = (0..3).map(|a| l2[a] - 2.0 * l1[a] + l0[a]).collect();
+        let norm = |x: &[f64]| x.iter().map(|e| e * e).sum::<f64>().sqrt();
+        let alpha = if norm(&v) > 0.0 {
+            (-norm(&r) / norm(&v)).min(-1.0)
+        } else {
+            -1.0
+        };
+        let jump: [f64; 3] = std::array::from_fn(|a| {
+            (l0[a] - 2.0 * alpha * r[a] + alpha * alpha * v[a])
+                .exp()
+                .max(Q_FLOOR)
+        });
+        let q3 = em.round(if jump.iter().all(|q| q.is_finite()) {
+            jump
+        } else {
+            q2
+        })?;
+        if settled(&q3, &q2) {
+            return Ok((q3, em.rounds));
+        }
+        q0 = q3;
+    }
+    Ok((q0, em.rounds))
+}
+
+/// The state of an estimation: the system (laid out, and symbolically factorised, once) and
+/// the estimates each round starts from.
+struct Em<'a> {
+    options: &'a SmootherOptions,
+    times_s: &'a [f64],
+    regs: &'a [Reg],
+    layout: Layout,
+    sys: Option<SparseSystem>,
+    est: Estimates,
+    rounds: usize,
+    twist0: Option<super::system::Gaussian3>,
+}
+
+impl Em<'_> {
+    /// One EM round from `qc`: smooth (the E-step), then the M-step.
+    fn round(&mut self, qc: [f64; 3]) -> Result<[f64; 3], SequenceError> {
+        let model = Model {
+            geometry: self.options.geometry,
+            times_s: self.times_s,
+            regs: self.regs,
+            qc,
+            huber_k: self.options.huber_k,
+            twist0: self.twist0,
+        };
+        let sys = match &mut self.sys {
+            Some(sys) => sys,
+            none => none.insert(SparseSystem::new(&model, &self.layout, self.times_s.len())?),
+        };
+        let est = std::mem::replace(
+            &mut self.est,
+            Estimates {
+                poses: Vec::new(),
+                twists: Vec::new(),
+            },
+        );
+        let (smoothed, own, cross) =
+            solve_with_marginals(&model, est, sys, &self.layout, self.options)?;
+        let next = m_step(&model, &smoothed, &own, &cross);
+        self.est = smoothed;
+        self.rounds += 1;
+        Ok(next)
+    }
+}
+
+/// The M-step: for each axis, `q = (1/2K) Σ_k tr(A_k⁻¹ E[e_k e_kᵀ])` over the K priors, where
+/// `e_k` is the axis' (position, velocity) residual, `A_k = [[Δt³/3, Δt²/2], [Δt²/2, Δt]]` and
+/// `E[e eᵀ] = ē ēᵀ + F Σ Fᵀ` with F the residual's Jacobian and Σ the joint marginal of scans k
+/// and k+1.
+fn m_step(model: &Model<'_>, est: &Estimates, own: &[Matrix6], cross: &[Matrix6]) -> [f64; 3] {
+    let n = est.poses.len();
+    let mut sum = [0.0; 3];
+    for k in 0..n - 1 {
+        let lin = factors::prior(
+            model.geometry,
+            &est.poses[k],
+            &est.twists[k],
+            &est.poses[k + 1],
+            &est.twists[k + 1],
+            model.dt_s(k),
+        );
+        let mut f = SMatrix::<f64, 6, 12>::zeros();
+        for (i, j) in lin.jacobians.iter().enumerate() {
+            f.fixed_view_mut::<6, 3>(0, 3 * i).copy_from(j);
+        }
+        let mut joint = SMatrix::<f64, 12, 12>::zeros();
+        joint.fixed_view_mut::<6, 6>(0, 0).copy_from(&own[k]);
+        joint.fixed_view_mut::<6, 6>(0, 6).copy_from(&cross[k]);
+        joint
+            .fixed_view_mut::<6, 6>(6, 0)
+            .copy_from(&cross[k].transpose());
+        joint.fixed_view_mut::<6, 6>(6, 6).copy_from(&own[k + 1]);
+        let e = lin.residual;
+        let m = e * e.transpose() + f * joint * f.transpose();
+        let dt = model.dt_s(k);
+        for (axis, s) in sum.iter_mut().enumerate() {
+            let (pp, pv, vv) = (
+                m[(axis, axis)],
+                m[(axis, axis + 3)],
+                m[(axis + 3, axis + 3)],
+            );
+            *s += 12.0 / dt.powi(3) * pp - 12.0 / dt.powi(2) * pv + 4.0 / dt * vv;
+        }
+    }
+    sum.map(|s| (s / (2.0 * (n - 1) as f64)).max(Q_FLOOR))
+}

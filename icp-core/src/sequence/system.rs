@@ -1,0 +1,219 @@
+//! The normal equations of the smoother: which 3-vectors are free (a [`Layout`]), and the
+//! linearisation of the prior and registration factors over them into any [`Sink`] (the sparse
+//! system of the batch smoother or the dense one of the causal window).
+
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+
+use super::factors::{self, Matrix6};
+use super::Geometry;
+
+/// A 3-vector's mean and information.
+pub(crate) type Gaussian3 = (Vector3<f64>, Matrix3<f64>);
+
+/// A registration in the smoother: `t_ref_src` parameters `z` of `source → reference` and the
+/// information (inverse covariance) of `z`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Reg {
+    pub source: usize,
+    pub reference: usize,
+    pub z: Vector3<f64>,
+    pub info: Matrix3<f64>,
+}
+
+/// Every scan's pose `(x m, y m, θ rad)` and body twist `(surge m/s, sway m/s, yaw rad/s)`.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Estimates {
+    pub poses: Vec<Vector3<f64>>,
+    pub twists: Vec<Vector3<f64>>,
+}
+
+/// The free 3-vectors (blocks) of the states `first..first + len`: a pose and a twist each, but
+/// scan 0's pose, which fixes the frame (the identity), is not free.
+#[derive(Clone, Debug)]
+pub(crate) struct Layout {
+    first: usize,
+    pose: Vec<Option<usize>>,
+    twist: Vec<usize>,
+    blocks: usize,
+}
+
+impl Layout {
+    pub fn new(first: usize, len: usize) -> Self {
+        let mut blocks = 0;
+        let mut pose = Vec::with_capacity(len);
+        let mut twist = Vec::with_capacity(len);
+        for state in first..first + len {
+            pose.push((state != 0).then(|| {
+                blocks += 1;
+                blocks - 1
+            }));
+            twist.push(blocks);
+            blocks += 1;
+        }
+        Self {
+            first,
+            pose,
+            twist,
+            blocks,
+        }
+    }
+
+    /// Number of free scalars.
+    pub fn dim(&self) -> usize {
+        3 * self.blocks
+    }
+
+    pub fn contains(&self, state: usize) -> bool {
+        state >= self.first && state < self.first + self.twist.len()
+    }
+
+    /// The block of `state`'s pose, if free and in the layout.
+    pub fn pose(&self, state: usize) -> Option<usize> {
+        self.contains(state)
+            .then(|| self.pose[state - self.first])
+            .flatten()
+    }
+
+    /// The block of `state`'s twist, if in the layout.
+    pub fn twist(&self, state: usize) -> Option<usize> {
+        self.contains(state).then(|| self.twist[state - self.first])
+    }
+
+    /// The blocks of `state` in `[pose, twist]` order (`None` where not free).
+    pub fn state_blocks(&self, state: usize) -> [Option<usize>; 2] {
+        [self.pose(state), self.twist(state)]
+    }
+
+    /// Applies the step `delta` (in this layout) to `est`.
+    pub fn apply(&self, geometry: Geometry, est: &mut Estimates, delta: &[f64]) {
+        for (i, state) in (self.first..self.first + self.twist.len()).enumerate() {
+            if let Some(b) = self.pose[i] {
+                let d = Vector3::new(delta[3 * b], delta[3 * b + 1], delta[3 * b + 2]);
+                let p = est.poses[state] + d;
+                est.poses[state] = match geometry {
+                    Geometry::Se2 => Vector3::new(p.x, p.y, factors::wrap_rad(p.z)),
+                    Geometry::Linear => p,
+                };
+            }
+            let b = self.twist[i];
+            est.twists[state] += Vector3::new(delta[3 * b], delta[3 * b + 1], delta[3 * b + 2]);
+        }
+    }
+}
+
+/// Where a linearisation accumulates `H = Σ Jᵀ W J` and `g = Σ Jᵀ W r`, block by block.
+pub(crate) trait Sink {
+    /// Adds `m` to block `(bi, bj)` of H; called once per ordered pair with `bi ≤ bj`.
+    fn add_h(&mut self, bi: usize, bj: usize, m: &Matrix3<f64>);
+    /// Adds `v` to block `bi` of g.
+    fn add_g(&mut self, bi: usize, v: &Vector3<f64>);
+}
+
+/// Adds one factor (residual `r`, information `info`, Jacobian blocks against `blocks`).
+pub(crate) fn accumulate<const R: usize, S: Sink>(
+    sink: &mut S,
+    blocks: &[(Option<usize>, SMatrix<f64, R, 3>)],
+    r: &SVector<f64, R>,
+    info: &SMatrix<f64, R, R>,
+) {
+    let wr = info * r;
+    for (bi, ji) in blocks {
+        let Some(bi) = *bi else { continue };
+        let jtw = ji.transpose() * info;
+        sink.add_g(bi, &(ji.transpose() * wr));
+        for (bj, jj) in blocks {
+            let Some(bj) = *bj else { continue };
+            if bi <= bj {
+                sink.add_h(bi, bj, &(jtw * jj));
+            }
+        }
+    }
+}
+
+/// The factors of a run: its timestamps, registrations, process noise and robust threshold.
+#[derive(Clone, Debug)]
+pub(crate) struct Model<'a> {
+    pub geometry: Geometry,
+    pub times_s: &'a [f64],
+    pub regs: &'a [Reg],
+    pub qc: [f64; 3],
+    pub huber_k: f64,
+    /// Scan 0's twist: mean and information, if known.
+    pub twist0: Option<Gaussian3>,
+}
+
+impl Model<'_> {
+    pub fn dt_s(&self, k: usize) -> f64 {
+        self.times_s[k + 1] - self.times_s[k]
+    }
+
+    pub fn prior_info(&self, k: usize) -> Matrix6 {
+        factors::prior_information(&self.qc, self.dt_s(k))
+    }
+
+    /// Linearises the prior between `k` and `k + 1` into `sink`; returns its cost `½ rᵀWr`.
+    pub fn add_prior<S: Sink>(
+        &self,
+        est: &Estimates,
+        layout: &Layout,
+        k: usize,
+        sink: &mut S,
+    ) -> f64 {
+        let lin = factors::prior(
+            self.geometry,
+            &est.poses[k],
+            &est.twists[k],
+            &est.poses[k + 1],
+            &est.twists[k + 1],
+            self.dt_s(k),
+        );
+        let info = self.prior_info(k);
+        let blocks = [
+            (layout.pose(k), lin.jacobians[0]),
+            (layout.twist(k), lin.jacobians[1]),
+            (layout.pose(k + 1), lin.jacobians[2]),
+            (layout.twist(k + 1), lin.jacobians[3]),
+        ];
+        accumulate(sink, &blocks, &lin.residual, &info);
+        0.5 * lin.residual.dot(&(info * lin.residual))
+    }
+
+    /// Linearises the prior on scan 0's twist, if any, into `sink`; returns its cost.
+    pub fn add_twist0<S: Sink>(&self, est: &Estimates, layout: &Layout, sink: &mut S) -> f64 {
+        let Some((mean, info)) = self.twist0 else {
+            return 0.0;
+        };
+        let r = est.twists[0] - mean;
+        accumulate(sink, &[(layout.twist(0), Matrix3::identity())], &r, &info);
+        0.5 * r.dot(&(info * r))
+    }
+
+    /// Linearises registration `i` (Huber-weighted, IRLS) into `sink`; returns its robust cost.
+    pub fn add_reg<S: Sink>(
+        &self,
+        est: &Estimates,
+        layout: &Layout,
+        i: usize,
+        sink: &mut S,
+    ) -> f64 {
+        let reg = &self.regs[i];
+        let (pred, j_src, j_ref) = factors::relative(
+            self.geometry,
+            &est.poses[reg.source],
+            &est.poses[reg.reference],
+        );
+        let r = factors::pose_minus(self.geometry, &pred, &reg.z);
+        let d = r.dot(&(reg.info * r)).max(0.0).sqrt();
+        let w = factors::huber_weight(d, self.huber_k);
+        let blocks = [
+            (layout.pose(reg.source), j_src),
+            (layout.pose(reg.reference), j_ref),
+        ];
+        accumulate(sink, &blocks, &r, &(reg.info * w));
+        if d <= self.huber_k {
+            0.5 * d * d
+        } else {
+            self.huber_k * d - 0.5 * self.huber_k * self.huber_k
+        }
+    }
+}
