@@ -67,8 +67,21 @@ impl RangeImage {
         }
         let centre = bin_of(bearing_rad, self.bin_rad, bins);
         let reach = ((half_width_rad / self.bin_rad).round() as usize).min(bins / 2);
-        let nearest = (0..=2 * reach)
-            .map(|i| self.min_range_m[(centre + bins + i - reach) % bins])
+        // The window's bins, as at most two runs (it may cross ±π), without a division per bin.
+        let first = (centre + bins - reach) % bins;
+        let last = first + 2 * reach;
+        let (head, tail) = if last < bins {
+            (&self.min_range_m[first..=last], &[][..])
+        } else {
+            (
+                &self.min_range_m[first..],
+                &self.min_range_m[..=last - bins],
+            )
+        };
+        let nearest = head
+            .iter()
+            .chain(tail)
+            .copied()
             .fold(f64::INFINITY, f64::min);
         nearest.is_finite().then_some(nearest)
     }
