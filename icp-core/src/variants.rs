@@ -23,7 +23,7 @@ use crate::icp::Icp;
 use crate::matching::MATCHERS;
 use crate::metric::METRICS;
 use crate::minimize::MINIMIZERS;
-use crate::moving::MOVING;
+use crate::moving::{Placement, MOVING};
 use crate::registry::{param_docs, BuildContext, FamilyDoc, ParamError, SectionDoc, StageSpec};
 use crate::robust::ROBUST_KERNELS;
 use crate::select::SELECTIONS;
@@ -134,6 +134,34 @@ impl VariantSpec {
         Ok(Some(changed))
     }
 }
+
+/// The registrations that place the neighbours of `variant`'s detector of moving returns when
+/// it asks for [`Placement::PointToLine`] (`None` otherwise): PL_ICP's configuration
+/// (point-to-line, Censi 2008) with `variant`'s error model, its detector `variant`'s placing
+/// by these registrations themselves, named `placement`.
+pub fn placement_chain(variant: &VariantSpec) -> Result<Option<VariantSpec>, ConfigError> {
+    use crate::Registrar;
+    let built = variant.build()?;
+    let asks = built
+        .moving()
+        .is_some_and(|m| m.placement() == Placement::PointToLine);
+    if !asks {
+        return Ok(None);
+    }
+    let mut spec = builtin(POINT_TO_LINE).expect("PL_ICP is built in");
+    spec.name = "placement".to_owned();
+    spec.sensor = variant.sensor;
+    spec.moving = variant.moving.clone();
+    spec.moving.params.insert(
+        "placement".to_owned(),
+        serde_json::to_value(Placement::Own).expect("a unit variant serializes"),
+    );
+    spec.validate()?;
+    Ok(Some(spec))
+}
+
+/// The built-in variant whose registrations place detectors' neighbours (point-to-line).
+const POINT_TO_LINE: &str = "PL_ICP";
 
 /// The built-in variants: the committed configuration files, compiled in. Adding one is one
 /// file in `configs/variants/` and one line here.

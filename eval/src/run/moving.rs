@@ -17,7 +17,9 @@ use std::collections::BTreeMap;
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
-use icp_core::moving::{neighbour_poses, Detection, Neighbour, RangeImage, Step};
+use icp_core::moving::{neighbour_poses, Detection, Neighbour, Placement, RangeImage, Step};
+use icp_core::variants::placement_chain;
+use indicatif::ProgressBar;
 use icp_core::{Prepared, Registrar, Surfaces, Workspace};
 use nalgebra::Matrix3;
 use rayon::prelude::*;
@@ -26,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
 use crate::run::lags::LagRuns;
-use crate::run::runner::{PairRun, Runs};
+use crate::run::runner::{self, Methods, PairRun, RunPlan, Runs};
 use crate::run::status::{PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
 
 /// What a pair's registration left out.
@@ -85,30 +87,108 @@ impl std::ops::Add for Confusion {
     }
 }
 
-/// The second pass over a run: detections from the registrations `runs` of the consecutive
-/// `pairs`, then those pairs and the ones across lags (`lagged`) registered again; as many
-/// rounds as each detector asks, each from the results of the round before.
+/// The second pass over a run: detections in the scans of the consecutive `pairs`, then those
+/// pairs and the ones across lags (`lagged`) registered again without what was found.
+///
+/// A detector that places its neighbours by the stage's own point-to-line registrations
+/// ([`Placement::PointToLine`]) gets them here: the chain (`icp_core::variants::placement_chain`)
+/// registers `pairs` as `plan` says, runs its detector's rounds on itself, and its last round's
+/// detections serve every variant whose chain is the same (one chain per distinct one, so a
+/// shard that holds some of the variants makes the same); each such variant registers its
+/// pairs once more without them. A detector placing by its variant's own registrations runs
+/// as many rounds as it asks, each from the results of the round before.
 pub fn apply(
     ds: &Dataset,
     pairs: &[ScanPair],
     registrars: &[Box<dyn Registrar>],
     runs: &mut Runs,
     lagged: Option<&mut LagRuns>,
+    plan: &RunPlan<'_>,
 ) {
-    let rounds = registrars
-        .iter()
-        .filter_map(|r| r.moving().map(|m| m.rounds()))
-        .max()
-        .unwrap_or(0);
-    let mut lagged = lagged;
-    for round in 0..rounds {
-        let detections = detect(ds, pairs, registrars, runs, round);
-        register_again(ds, pairs, registrars, &detections, runs);
-        if let Some(lagged) = lagged.as_deref_mut() {
-            let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
-            register_again(ds, &lag_pairs, registrars, &detections, &mut lagged.runs);
+    let mut found = rounds(ds, pairs, registrars, runs);
+    for (chain, users) in placement_chains(registrars) {
+        let chain: [Box<dyn Registrar>; 1] = [Box::new(chain)];
+        let mut chain_runs = runner::run_all(
+            ds,
+            pairs,
+            Methods::registrars(&chain),
+            plan,
+            &ProgressBar::hidden(),
+        );
+        let mut last = rounds(ds, pairs, &chain, &mut chain_runs).pop().flatten();
+        if let Some(last) = last.as_mut() {
+            // Each scan's share of the chain's work: its pair's registrations and detections.
+            for (pair, run) in pairs.iter().zip(&chain_runs.per_variant[0]) {
+                if let Some((_, us)) = last.get_mut(&pair.source) {
+                    *us = run.time_us.unwrap_or(0.0);
+                }
+            }
+        }
+        for v in users {
+            found[v].clone_from(&last);
         }
     }
+    register_again(ds, pairs, registrars, &found, runs);
+    if let Some(lagged) = lagged {
+        let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
+        register_again(ds, &lag_pairs, registrars, &found, &mut lagged.runs);
+    }
+}
+
+/// The distinct chains of registrations that place the neighbours of `registrars`' detectors
+/// asking for the stage's own ([`Placement::PointToLine`]), built, each with the registrars
+/// (indices) it serves, in the order of their first user.
+fn placement_chains(registrars: &[Box<dyn Registrar>]) -> Vec<(icp_core::Icp, Vec<usize>)> {
+    let mut chains: Vec<(String, icp_core::Icp, Vec<usize>)> = Vec::new();
+    for (v, reg) in registrars.iter().enumerate() {
+        let Ok(Some(spec)) = placement_chain(&reg.spec()) else {
+            continue;
+        };
+        let key = serde_json::to_string(&spec).expect("a spec serializes");
+        match chains.iter_mut().find(|(k, ..)| *k == key) {
+            Some((_, _, users)) => users.push(v),
+            None => {
+                let built = spec.build().expect("PL_ICP's configuration builds");
+                chains.push((key, built, vec![v]));
+            }
+        }
+    }
+    chains.into_iter().map(|(_, c, users)| (c, users)).collect()
+}
+
+/// The rounds of the detectors of `registrars` that place their neighbours by the variant's
+/// own registrations `runs` of `pairs`: each round detects from the results of the round
+/// before and registers the consecutive pairs again; per registrar, the last round's
+/// detections (`None` without such a detector).
+fn rounds(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+    runs: &mut Runs,
+) -> Vec<Option<Detections>> {
+    let own = |r: &dyn Registrar| {
+        r.moving()
+            .filter(|m| m.placement() == Placement::Own)
+            .map_or(0, |m| m.rounds())
+    };
+    let rounds = registrars.iter().map(|r| own(r.as_ref())).max().unwrap_or(0);
+    let mut last: Vec<Option<Detections>> = vec![None; registrars.len()];
+    for round in 0..rounds {
+        let detections = detect(ds, pairs, registrars, runs, round);
+        // The last round's registrations are made by the caller, with the lag pairs'.
+        let later: Vec<Option<Detections>> = detections
+            .iter()
+            .zip(registrars)
+            .map(|(d, r)| d.clone().filter(|_| own(r.as_ref()) > round + 1))
+            .collect();
+        register_again(ds, pairs, registrars, &later, runs);
+        for (l, d) in last.iter_mut().zip(detections) {
+            if d.is_some() {
+                *l = d;
+            }
+        }
+    }
+    last
 }
 
 /// Per scan, a variant's detection, and its wall time, µs.
@@ -140,7 +220,9 @@ pub fn detect(
         .iter()
         .zip(&runs.per_variant)
         .map(|(reg, variant_runs)| {
-            let detector = reg.moving().filter(|m| m.rounds() > round)?;
+            let detector = reg
+                .moving()
+                .filter(|m| m.placement() == Placement::Own && m.rounds() > round)?;
             let sensor = reg.spec().sensor;
             let inflation = closed_form_inflation(&reg.spec().metric);
             let steps = steps(ds.scans.len(), pairs, variant_runs, inflation);

@@ -697,6 +697,7 @@ pub fn run_shard(
                             mine.registrars,
                             &mut runs,
                             lagged.as_mut(),
+                            &run_plan,
                         );
                         if slice.units.start != 0 {
                             runs.searches.clear();

@@ -7,7 +7,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use super::segments::{extent_m, segments};
-use super::{Detection, MovingReturns, Neighbour, FREE_SPACE};
+use super::{Detection, MovingReturns, Neighbour, Placement, FREE_SPACE};
 use crate::registry::{ParamError, Params, StageKind, StageSpec};
 use crate::{Scan, SensorModel};
 
@@ -24,6 +24,11 @@ pub struct FreeSpace {
     /// before: the first round's chained poses carry the moving hulls' bias, the second's
     /// much less.
     pub rounds: usize,
+    /// Whose registrations of consecutive scans place the neighbours: `point_to_line`, the
+    /// stage's own (they are the least biased by the hulls: on rough harbours of seeds 7, 11
+    /// and 13 they leave GICP's and HD_GICP's SOG medians within ±0.007 m/s and 7–23 gross
+    /// `ok` pairs, where their own leave −0.012..−0.016 and 50–81), or `own`, the variant's.
+    pub placement: Placement,
     /// A return is seen to move when at least this many neighbours looked through where it
     /// lies (a low surface that the rolling scanner's beam passes over now and then, or a
     /// return off the water, is looked through by one neighbour, seldom by more).
@@ -63,6 +68,7 @@ impl Default for FreeSpace {
     fn default() -> Self {
         Self {
             rounds: 2,
+            placement: Placement::PointToLine,
             lag_scans: 8,
             min_votes: 3,
             n_sigma: 3.0,
@@ -172,6 +178,10 @@ impl MovingReturns for FreeSpace {
 
     fn rounds(&self) -> usize {
         self.rounds
+    }
+
+    fn placement(&self) -> Placement {
+        self.placement
     }
 
     fn detect(&self, scan: &Scan, neighbours: &[Neighbour<'_>], sensor: &SensorModel) -> Detection {

@@ -22,9 +22,9 @@
 //! returns are seen to move ([`segments`]): its sides go with its ends.
 //!
 //! **Where it runs.** A detector needs the sequence, not one pair: the harness registers every
-//! pair, detects in each scan from its neighbours' registrations by the same variant, and
-//! registers the pairs again without the returns left out, from the first result (`eval`'s
-//! `run::moving`). It is a stage of a variant's configuration (`"moving": "free_space"`), on
+//! pair, detects in each scan from its neighbours' placed by a chain of registrations
+//! ([`Placement`]), and registers the pairs again without the returns left out, from the
+//! first result (`eval`'s `run::moving`). It is a stage of a variant's configuration (`"moving": "free_space"`), on
 //! for PL_ICP, HD_PL_ICP, GICP and HD_GICP and off for the paper's four variants, whose loop
 //! stays the paper's.
 
@@ -34,6 +34,8 @@ mod range_image;
 mod segments;
 
 use nalgebra::{Isometry2, Matrix3};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
 
 pub use chain::{neighbour_poses, Step};
 pub use free_space::FreeSpace;
@@ -95,6 +97,21 @@ impl Detection {
     }
 }
 
+/// Whose registrations of consecutive scans place a detector's neighbours.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Placement {
+    /// The variant's own: a metric that the hulls bias most (point-to-point,
+    /// plane-to-plane: a hull's ends pull them) places its neighbours worst and finds least.
+    #[default]
+    Own,
+    /// The stage's own point-to-line registrations (PL_ICP's configuration with the
+    /// variant's error model, and its detector placing by them: `variants::placement_chain`),
+    /// made once per run and shared by every variant whose detector and error model are the
+    /// same; the variant then registers each pair once more without what they left out.
+    PointToLine,
+}
+
 /// Finds the returns of a scan that move against the rest of the scene.
 pub trait MovingReturns: Send + Sync {
     /// What this stage is, as configuration data.
@@ -109,6 +126,11 @@ pub trait MovingReturns: Send + Sync {
     /// registrations of the one before (the first from the registrations with every return).
     fn rounds(&self) -> usize {
         1
+    }
+
+    /// Whose registrations place the neighbours.
+    fn placement(&self) -> Placement {
+        Placement::Own
     }
 
     /// The returns of `scan` to leave out, judged against `neighbours` under `sensor`.
