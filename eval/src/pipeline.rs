@@ -38,7 +38,14 @@ pub fn evaluate(
     progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
     let mut lagged = lags::run(ds, lag_pairs, setup.lags, methods, &plan, progress);
-    moving::apply(ds, &pairs, methods.registrars, &mut runs, lagged.as_mut(), &plan);
+    moving::apply(
+        ds,
+        &pairs,
+        methods.registrars,
+        &mut runs,
+        lagged.as_mut(),
+        &plan,
+    );
     if setup.covariance == CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }
@@ -79,6 +86,8 @@ pub fn report(
         runs.per_variant.extend(s.runs.iter().cloned());
     }
     let mut report = build::build(ds, pairs, skipped, setup, &runs);
+    let names: Vec<&str> = report.variants.iter().map(|v| v.name.as_str()).collect();
+    report.drawn_scan = moving::drawn_scan(&names, pairs, &runs);
     if let Some(checked) = checked {
         for (v, summary) in report.variants.iter_mut().zip(checked.summaries) {
             v.cycles = Some(summary);

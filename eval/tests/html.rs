@@ -135,6 +135,47 @@ fn a_run_page_holds_its_tables_figures_flags_and_provenance() {
     }
 }
 
+/// A run whose detector of moving returns left some out draws the scan that lost the most,
+/// titled with the count `pairs.csv` gives for it.
+#[test]
+fn the_scan_that_lost_the_most_returns_is_drawn() {
+    let dir = scratch_dir("html-left-out");
+    let out = dir.join("run");
+    icp_eval_ok(&[
+        "run",
+        "--dataset",
+        "synthetic:rough",
+        "--scans",
+        "200",
+        "--variants",
+        "PL_ICP",
+        "--reference-checks",
+        "off",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let mut most: Option<(usize, usize)> = None;
+    let mut rows = csv::Reader::from_path(out.join("pairs.csv")).unwrap();
+    let header = rows.headers().unwrap().clone();
+    let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let (source, left_out) = (column("source"), column("left_out_src"));
+    for row in rows.records() {
+        let row = row.unwrap();
+        let n: usize = row[left_out].parse().unwrap();
+        if n > most.map_or(0, |(_, m)| m) {
+            most = Some((row[source].parse().unwrap(), n));
+        }
+    }
+    let (scan, n) = most.expect("the boats' returns were left out");
+    let html = page(&out);
+    every_figure_inline(&html, &out);
+    let figure = select(&html, "figure[data-figure=left_out]").concat();
+    assert!(
+        figure.contains(&format!("scan {scan} by PL_ICP: {n} of ")),
+        "scan {scan} with {n} left out not drawn: {figure:.300}"
+    );
+}
+
 #[test]
 fn without_figures_the_page_says_so() {
     let dir = scratch_dir("html-no-plots");

@@ -308,6 +308,7 @@ pub fn build(
         cycles: Vec::new(),
         sequence: Vec::new(),
         sequence_scans: Vec::new(),
+        drawn_scan: None,
     }
 }
 

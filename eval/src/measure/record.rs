@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::data::RefMotion;
 use crate::measure::bound::PairBound;
 use crate::run::init::InitMode;
-use crate::run::moving::Confusion;
+use crate::run::left_out::Confusion;
 use crate::run::runner::PairRun;
 use crate::run::status::StatusKind;
 
@@ -247,9 +247,9 @@ pub fn record(
         rot_sigma_dps: None,
         nees: None,
         nees_with_reference_noise: None,
-        left_out_src: run.left_out.map(|l| l.source),
-        left_out_ref: run.left_out.map(|l| l.reference),
-        left_out_truth: run.left_out.and_then(|l| l.source_truth),
+        left_out_src: run.left_out.as_ref().map(|l| l.source),
+        left_out_ref: run.left_out.as_ref().map(|l| l.reference),
+        left_out_truth: run.left_out.as_ref().and_then(|l| l.source_truth),
         time_us: run.time_us,
     }
 }

@@ -21,7 +21,7 @@ use crate::measure::trajectory::{EvoMetrics, ReferenceTum};
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalSource;
 use crate::run::init::InitChain;
-use crate::run::moving::Confusion;
+use crate::run::left_out::{Confusion, DrawnScan};
 use crate::run::sequence::{SequenceRecord, SequenceSummary};
 use crate::run::setup::{GlobalChecks, OffsetChoice, ReferenceChecks};
 use crate::run::start_gate::StartGate;
@@ -382,4 +382,7 @@ pub struct RunReport {
     /// `summary.json`).
     #[serde(skip)]
     pub sequence_scans: Vec<SequenceRecord>,
+    /// A scan drawn with the returns a detector of moving returns left out (a figure).
+    #[serde(skip)]
+    pub drawn_scan: Option<DrawnScan>,
 }

@@ -9,6 +9,7 @@ pub mod estimates;
 pub mod extended;
 pub mod init;
 pub mod lags;
+pub mod left_out;
 pub mod modes;
 pub mod motion;
 pub mod moving;

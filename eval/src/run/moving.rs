@@ -19,72 +19,39 @@ use std::time::Instant;
 use datasets::{Dataset, ScanPair};
 use icp_core::moving::{neighbour_poses, Detection, Neighbour, Placement, RangeImage, Step};
 use icp_core::variants::placement_chain;
-use indicatif::ProgressBar;
 use icp_core::{Prepared, Registrar, Surfaces, Workspace};
+use indicatif::ProgressBar;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
 use crate::run::lags::LagRuns;
+use crate::run::left_out::{Confusion, DrawnScan, LeftOut};
 use crate::run::runner::{self, Methods, PairRun, RunPlan, Runs};
 use crate::run::status::{PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
 
-/// What a pair's registration left out.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct LeftOut {
-    /// Returns of the source scan left out.
-    pub source: usize,
-    /// Returns of the reference scan left out.
-    pub reference: usize,
-    /// The source scan's detection against its truth labels, where it has them.
-    pub source_truth: Option<Confusion>,
-}
-
-/// A detection scored against the labels of a scan.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Confusion {
-    /// Returns labelled moving.
-    pub moving: usize,
-    /// …of them left out.
-    pub moving_left_out: usize,
-    /// Returns labelled static.
-    pub r#static: usize,
-    /// …of them left out.
-    pub static_left_out: usize,
-}
-
-impl Confusion {
-    /// `detection` of `scan` scored against its labels; `None` for an unlabelled scan.
-    fn of(scan: &icp_core::Scan, detection: &Detection) -> Option<Self> {
-        let labels = scan.moving()?;
-        let mut c = Self::default();
-        for (&moving, &out) in labels.iter().zip(&detection.left_out) {
-            if moving {
-                c.moving += 1;
-                c.moving_left_out += usize::from(out);
-            } else {
-                c.r#static += 1;
-                c.static_left_out += usize::from(out);
-            }
-        }
-        Some(c)
-    }
-}
-
-impl std::ops::Add for Confusion {
-    type Output = Self;
-
-    /// The sum of two scores.
-    fn add(self, other: Self) -> Self {
-        Self {
-            moving: self.moving + other.moving,
-            moving_left_out: self.moving_left_out + other.moving_left_out,
-            r#static: self.r#static + other.r#static,
-            static_left_out: self.static_left_out + other.static_left_out,
-        }
-    }
+/// The scan to draw: of the first method (in `names`' order, `runs`' methods) whose detector
+/// left returns out, the source scan of the pair whose source lost the most (the earliest
+/// such pair on a tie).
+pub fn drawn_scan(names: &[&str], pairs: &[ScanPair], runs: &Runs) -> Option<DrawnScan> {
+    names
+        .iter()
+        .zip(&runs.per_variant)
+        .find_map(|(name, variant_runs)| {
+            let (pair, left_out) = pairs
+                .iter()
+                .zip(variant_runs)
+                .filter_map(|(p, r)| Some((p, r.left_out.as_ref()?)))
+                .filter(|(_, l)| !l.source_indices.is_empty())
+                .rev()
+                .max_by_key(|(_, l)| l.source_indices.len())?;
+            Some(DrawnScan {
+                variant: (*name).to_owned(),
+                scan: pair.source,
+                left_out: left_out.source_indices.clone(),
+            })
+        })
 }
 
 /// The second pass over a run: detections in the scans of the consecutive `pairs`, then those
@@ -171,7 +138,11 @@ fn rounds(
             .filter(|m| m.placement() == Placement::Own)
             .map_or(0, |m| m.rounds())
     };
-    let rounds = registrars.iter().map(|r| own(r.as_ref())).max().unwrap_or(0);
+    let rounds = registrars
+        .iter()
+        .map(|r| own(r.as_ref()))
+        .max()
+        .unwrap_or(0);
     let mut last: Vec<Option<Detections>> = vec![None; registrars.len()];
     for round in 0..rounds {
         let detections = detect(ds, pairs, registrars, runs, round);
@@ -316,6 +287,10 @@ fn again(
         source: src.count(),
         reference: dst.count(),
         source_truth: Confusion::of(source, src),
+        source_indices: (0..)
+            .zip(&src.left_out)
+            .filter_map(|(i, &out)| out.then_some(i))
+            .collect(),
     });
     let Ok(first) = &run.result else { return };
     if src.count() + dst.count() == 0 {

@@ -27,7 +27,7 @@ use crate::run::init;
 use crate::run::init::InitChain;
 use crate::run::init::InitMode;
 use crate::run::init::Previous;
-use crate::run::moving::LeftOut;
+use crate::run::left_out::LeftOut;
 use crate::run::pair_search::Searched;
 use crate::run::status::GlobalCheck;
 use crate::run::status::PairStatus;
@@ -59,7 +59,7 @@ pub struct PairRun {
     /// apart; `None` for an external estimate, whose time is not known here).
     pub time_us: Option<f64>,
     /// What its variant's detector of moving returns left out of the pair's scans (`None`:
-    /// the variant has none; see [`crate::run::moving`]).
+    /// the variant has none; see `run::moving`).
     #[serde(default)]
     pub left_out: Option<LeftOut>,
 }

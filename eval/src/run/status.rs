@@ -61,7 +61,7 @@ pub enum PairStatus {
         /// Whether two agree (within 0.1 m and 1°): then this registration alone is wrong.
         alternatives_agree: bool,
     },
-    /// Registered without the returns its detector saw move ([`crate::run::moving`]), but
+    /// Registered without the returns its detector saw move (`run::moving`), but
     /// so much of a scan moves against the rest that the evidence for one motion is split:
     /// with and without those returns the scans say different things.
     Dynamic {

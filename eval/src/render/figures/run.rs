@@ -1,6 +1,7 @@
 //! The figures of one run, drawn from its [`RunReport`]: SOG and ΔCOG error against scan index
 //! (the paper's Figs. 12, 14), their histograms (Figs. 13, 15), the chained trajectories, the
-//! maps made by placing every scan on them (Fig. 16), and the NEES distribution.
+//! maps made by placing every scan on them (Fig. 16), the NEES distribution, and a scan with
+//! the returns left out as moving.
 
 use datasets::Dataset;
 use nalgebra::Point2;
@@ -11,6 +12,7 @@ use crate::error::EvalError;
 use crate::measure::record::PairRecord;
 use crate::measure::report::RunReport;
 use crate::render::figures::draw::*;
+use crate::render::figures::left_out::LeftOutScan;
 use crate::render::outdir::OutputDir;
 
 /// Which error a figure shows.
@@ -520,5 +522,10 @@ fn draw_all(sink: &mut impl Sink, ds: &Dataset, report: &RunReport) -> Result<()
         report,
         panels: panels(MAP_MAX_POINTS_SVG),
     };
-    sink.figure("map", &png, &svg)
+    sink.figure("map", &png, &svg)?;
+    if let Some(drawn) = &report.drawn_scan {
+        let scan = LeftOutScan { ds, drawn };
+        sink.figure("left_out", &scan, &scan)?;
+    }
+    Ok(())
 }
