@@ -296,6 +296,29 @@ mod tests {
     }
 
     #[test]
+    fn the_placement_chain_is_point_to_line_with_the_variants_sensor_and_detector() {
+        let mut gicp = builtin("GICP").unwrap();
+        gicp.sensor.sigma_r_per_m = 0.01;
+        gicp.moving.params.insert("lag_scans".into(), 5.into());
+        let chain = placement_chain(&gicp)
+            .unwrap()
+            .expect("GICP places by point-to-line");
+        let pl_icp = builtin("PL_ICP").unwrap();
+        assert_eq!(chain.metric, pl_icp.metric);
+        assert_eq!(chain.robust, pl_icp.robust);
+        assert_eq!(chain.sensor, gicp.sensor);
+        let built = chain.build().unwrap();
+        let detector = built.moving().expect("the chain detects");
+        assert_eq!(detector.placement(), Placement::Own);
+        assert_eq!(detector.lag_scans(), 5);
+        // Its own placement, or no detector: no chain.
+        assert!(placement_chain(&chain).unwrap().is_none());
+        assert!(placement_chain(&builtin("HD_ICP").unwrap())
+            .unwrap()
+            .is_none());
+    }
+
+    #[test]
     fn invalid_specs_are_refused_naming_the_parameter() {
         let err = |f: &dyn Fn(&mut VariantSpec)| {
             let mut spec = builtin("H_ICP").unwrap();
