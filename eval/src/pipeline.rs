@@ -38,14 +38,7 @@ pub fn evaluate(
     progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);
     let mut lagged = lags::run(ds, lag_pairs, setup.lags, methods, &plan, progress);
-    moving::apply(
-        ds,
-        &pairs,
-        methods.registrars,
-        &mut runs,
-        lagged.as_mut(),
-        &plan,
-    );
+    moving::apply(ds, &pairs, methods, &mut runs, lagged.as_mut(), &plan);
     if setup.covariance == CovarianceMode::Sampled {
         sampled::replace_covariances(ds, &pairs, &setup.variants, &mut runs);
     }

@@ -18,7 +18,10 @@ use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
 use icp_core::moving::{neighbour_poses, Detection, Neighbour, Placement, RangeImage, Step};
+use icp_core::registry::StageSpec;
+use icp_core::spec::VariantSpec;
 use icp_core::variants::placement_chain;
+use icp_core::Icp;
 use icp_core::{Prepared, Registrar, Surfaces, Workspace};
 use indicatif::ProgressBar;
 use nalgebra::Matrix3;
@@ -59,29 +62,50 @@ pub fn drawn_scan(names: &[&str], pairs: &[ScanPair], runs: &Runs) -> Option<Dra
 ///
 /// A detector that places its neighbours by the stage's own point-to-line registrations
 /// ([`Placement::PointToLine`]) gets them here: the chain (`icp_core::variants::placement_chain`)
-/// registers `pairs` as `plan` says, runs its detector's rounds on itself, and its last round's
-/// detections serve every variant whose chain is the same (one chain per distinct one, so a
-/// shard that holds some of the variants makes the same); each such variant registers its
-/// pairs once more without them. A detector placing by its variant's own registrations runs
-/// as many rounds as it asks, each from the results of the round before.
+/// registers `pairs` as `plan` says (or, when a variant of `methods` registers exactly as the
+/// chain does, its first results are taken: the same numbers, made once), runs its detector's
+/// rounds on itself, and its last round's detections serve every variant whose chain is the
+/// same (one chain per distinct one, so a shard that holds some of the variants makes the
+/// same); each such variant registers its pairs once more without them. A detector placing by
+/// its variant's own registrations runs as many rounds as it asks, each from the results of
+/// the round before.
 pub fn apply(
     ds: &Dataset,
     pairs: &[ScanPair],
-    registrars: &[Box<dyn Registrar>],
+    methods: Methods<'_>,
     runs: &mut Runs,
     lagged: Option<&mut LagRuns>,
     plan: &RunPlan<'_>,
 ) {
-    let mut found = rounds(ds, pairs, registrars, runs);
-    for (chain, users) in placement_chains(registrars) {
+    let registrars = methods.registrars;
+    let mut placed = vec![None; registrars.len()];
+    for (spec, chain, users) in placement_chains(registrars) {
+        let twin = registrars.iter().enumerate().position(|(v, r)| {
+            let gated = methods.close.get(v).is_some_and(Option::is_some);
+            !gated && registers_as(&r.spec(), &spec)
+        });
         let chain: [Box<dyn Registrar>; 1] = [Box::new(chain)];
-        let mut chain_runs = runner::run_all(
-            ds,
-            pairs,
-            Methods::registrars(&chain),
-            plan,
-            &ProgressBar::hidden(),
-        );
+        let mut chain_runs = match twin {
+            Some(v) => Runs {
+                // Their time is the variant's own; the chain's adds what follows.
+                per_variant: vec![runs.per_variant[v]
+                    .iter()
+                    .map(|r| PairRun {
+                        time_us: r.time_us.map(|_| 0.0),
+                        ..r.clone()
+                    })
+                    .collect()],
+                prepare_us: Vec::new(),
+                searches: Vec::new(),
+            },
+            None => runner::run_all(
+                ds,
+                pairs,
+                Methods::registrars(&chain),
+                plan,
+                &ProgressBar::hidden(),
+            ),
+        };
         let mut last = rounds(ds, pairs, &chain, &mut chain_runs).pop().flatten();
         if let Some(last) = last.as_mut() {
             // Each scan's share of the chain's work: its pair's registrations and detections.
@@ -92,7 +116,13 @@ pub fn apply(
             }
         }
         for v in users {
-            found[v].clone_from(&last);
+            placed[v].clone_from(&last);
+        }
+    }
+    let mut found = rounds(ds, pairs, registrars, runs);
+    for (f, p) in found.iter_mut().zip(placed) {
+        if p.is_some() {
+            *f = p;
         }
     }
     register_again(ds, pairs, registrars, &found, runs);
@@ -105,22 +135,32 @@ pub fn apply(
 /// The distinct chains of registrations that place the neighbours of `registrars`' detectors
 /// asking for the stage's own ([`Placement::PointToLine`]), built, each with the registrars
 /// (indices) it serves, in the order of their first user.
-fn placement_chains(registrars: &[Box<dyn Registrar>]) -> Vec<(icp_core::Icp, Vec<usize>)> {
-    let mut chains: Vec<(String, icp_core::Icp, Vec<usize>)> = Vec::new();
+fn placement_chains(registrars: &[Box<dyn Registrar>]) -> Vec<(VariantSpec, Icp, Vec<usize>)> {
+    let mut chains: Vec<(VariantSpec, Icp, Vec<usize>)> = Vec::new();
     for (v, reg) in registrars.iter().enumerate() {
         let Ok(Some(spec)) = placement_chain(&reg.spec()) else {
             continue;
         };
-        let key = serde_json::to_string(&spec).expect("a spec serializes");
-        match chains.iter_mut().find(|(k, ..)| *k == key) {
+        match chains.iter_mut().find(|(s, ..)| *s == spec) {
             Some((_, _, users)) => users.push(v),
             None => {
                 let built = spec.build().expect("PL_ICP's configuration builds");
-                chains.push((key, built, vec![v]));
+                chains.push((spec, built, vec![v]));
             }
         }
     }
-    chains.into_iter().map(|(_, c, users)| (c, users)).collect()
+    chains
+}
+
+/// Whether a variant `spec` registers exactly as `chain` does: the same configuration but for
+/// the name and the detector (which acts only after the first registrations).
+fn registers_as(spec: &VariantSpec, chain: &VariantSpec) -> bool {
+    let registration = |s: &VariantSpec| VariantSpec {
+        name: String::new(),
+        moving: StageSpec::kind("none"),
+        ..s.clone()
+    };
+    registration(spec) == registration(chain)
 }
 
 /// The rounds of the detectors of `registrars` that place their neighbours by the variant's

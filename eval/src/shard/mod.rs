@@ -694,7 +694,7 @@ pub fn run_shard(
                         crate::run::moving::apply(
                             ds,
                             &pairs,
-                            mine.registrars,
+                            mine,
                             &mut runs,
                             lagged.as_mut(),
                             &run_plan,
