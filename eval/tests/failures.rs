@@ -218,3 +218,74 @@ fn a_pair_one_variant_fails_leaves_every_variants_statistics_and_charges_that_va
     assert!(!row("HD_ICP").all_registered && !row("GIVES_UP").all_registered);
     assert_eq!(row("GIVES_UP").status, StatusKind::Failed);
 }
+
+/// A scan most of whose scene moves (runs of returns pulled in to half their range, where the
+/// neighbouring scans saw the harbour's walls behind them): the variants with a detector of
+/// moving returns flag its pairs with the reason, and no pair gives a silent gross number.
+#[test]
+fn a_scan_whose_scene_mostly_moves_flags_its_pairs() {
+    let mut ds = generate(&Scenario {
+        n_scans: 40,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let k = 20;
+    let scan = &ds.scans[k];
+    let pulled: Vec<[f64; 2]> = scan
+        .returns()
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let f = if (i / 40) % 4 == 3 { 1.0 } else { 0.5 };
+            [f * r.point.x, f * r.point.y]
+        })
+        .collect();
+    ds.scans[k] = Scan::from_cartesian(&pulled)
+        .unwrap()
+        .with_timestamp(scan.timestamp_s().unwrap())
+        .unwrap();
+    let specs: Vec<_> = ["PL_ICP", "GICP"]
+        .iter()
+        .map(|n| builtin(n).unwrap())
+        .collect();
+    let setup = EvalSetup::from_specs(&specs, OffsetChoice::Fixed(0))
+        .unwrap()
+        .with_covariance(eval::run::covariance::CovarianceMode::Extended)
+        .with_global(
+            icp_core::global::GlobalParams::default(),
+            eval::run::setup::GlobalChecks::On,
+        );
+    let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
+    let mut isolated = 0;
+    for r in &report.pairs {
+        let touches = r.source == k || r.reference == k;
+        assert_eq!(
+            r.status != StatusKind::Ok,
+            touches,
+            "{} pair {}: {:?} {}",
+            r.variant,
+            r.pair,
+            r.status,
+            r.status_reason
+        );
+        if r.status == StatusKind::Ok {
+            let e = r.sog_err_mps.expect("a rigid reference");
+            assert!(
+                e.abs() < 0.5,
+                "{} pair {}: silent {e} m/s",
+                r.variant,
+                r.pair
+            );
+        }
+        if r.status == StatusKind::Isolated {
+            isolated += 1;
+            assert!(
+                r.status_reason.contains("scan 20 fits neither neighbour"),
+                "{}",
+                r.status_reason
+            );
+        }
+    }
+    // GICP registered the pulled-in scan onto its successor without a flag of its own.
+    assert!(isolated > 0, "no pair flagged for its isolated scan");
+}

@@ -13,7 +13,7 @@
 //! gives each shard whole variants (the variant cut of the `shard` module), as for starts
 //! that chain pairs.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
@@ -79,6 +79,7 @@ pub fn apply(
 ) {
     let registrars = methods.registrars;
     let mut placed = vec![None; registrars.len()];
+    let mut unjudged: Vec<BTreeMap<usize, PairStatus>> = vec![BTreeMap::new(); registrars.len()];
     for (spec, chain, users) in placement_chains(registrars) {
         let twin = registrars.iter().enumerate().position(|(v, r)| {
             let gated = methods.close.get(v).is_some_and(Option::is_some);
@@ -115,8 +116,10 @@ pub fn apply(
                 }
             }
         }
+        let isolated = isolated(pairs, &chain_runs.per_variant[0]);
         for v in users {
             placed[v].clone_from(&last);
+            unjudged[v].clone_from(&isolated);
         }
     }
     let mut found = rounds(ds, pairs, registrars, runs);
@@ -126,9 +129,93 @@ pub fn apply(
         }
     }
     register_again(ds, pairs, registrars, &found, runs);
+    let unjudged = confirmed(pairs, unjudged, runs);
+    flag_isolated(pairs, &unjudged, runs);
     if let Some(lagged) = lagged {
         let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
         register_again(ds, &lag_pairs, registrars, &found, &mut lagged.runs);
+    }
+}
+
+/// The scans that fit neither neighbour by the registrations `runs` of the consecutive
+/// `pairs`: both of theirs are flagged as not seeing one scene (no overlap, suspect, dynamic,
+/// failed; a degenerate or ambiguous registration is weak geometry, not another scene), each
+/// with its flag. A variant's pairs with such a scan are flagged where its own registration
+/// onto or from the scan is flagged too ([`confirmed`]).
+fn isolated(pairs: &[ScanPair], runs: &[PairRun]) -> BTreeMap<usize, PairStatus> {
+    let steps: BTreeMap<usize, &PairStatus> = pairs
+        .iter()
+        .zip(runs)
+        .filter(|(p, _)| p.reference == p.source + 1)
+        .map(|(p, r)| (p.source, &r.status))
+        .collect();
+    let apart = |s: &PairStatus| {
+        matches!(
+            s,
+            PairStatus::NoOverlap { .. }
+                | PairStatus::Suspect { .. }
+                | PairStatus::Dynamic { .. }
+                | PairStatus::Failed { .. }
+        )
+    };
+    let said = |s: &PairStatus| {
+        let kind = serde_json::to_value(s.kind()).expect("a kind serializes");
+        format!("{} ({s})", kind.as_str().unwrap_or_default())
+    };
+    steps
+        .iter()
+        .filter_map(|(&k, &after)| {
+            let before = *steps.get(&k.checked_sub(1)?)?;
+            (apart(before) && apart(after)).then(|| {
+                let status = PairStatus::Isolated {
+                    scan: k,
+                    before: said(before),
+                    after: said(after),
+                };
+                (k, status)
+            })
+        })
+        .collect()
+}
+
+/// Of each registrar's `unjudged` scans, those where its own registration onto or from the
+/// scan (`runs` of the consecutive `pairs`) is flagged too: the placing registrations alone
+/// can be wrong where the variant is right (on aces they are, at 7 scans of 440).
+fn confirmed(
+    pairs: &[ScanPair],
+    unjudged: Vec<BTreeMap<usize, PairStatus>>,
+    runs: &Runs,
+) -> Vec<BTreeMap<usize, PairStatus>> {
+    unjudged
+        .into_iter()
+        .zip(&runs.per_variant)
+        .map(|(scans, variant_runs)| {
+            let flagged: BTreeSet<usize> = pairs
+                .iter()
+                .zip(variant_runs)
+                .filter(|(p, r)| p.reference == p.source + 1 && r.status.is_failure())
+                .flat_map(|(p, _)| [p.source, p.reference])
+                .collect();
+            scans
+                .into_iter()
+                .filter(|(k, _)| flagged.contains(k))
+                .collect()
+        })
+        .collect()
+}
+
+/// Flags, per registrar, its `ok` registrations `runs` of `pairs` that have a scan in its
+/// `unjudged` ones (the consecutive pairs: a pair across lags is judged by its loops).
+fn flag_isolated(pairs: &[ScanPair], unjudged: &[BTreeMap<usize, PairStatus>], runs: &mut Runs) {
+    for (scans, variant_runs) in unjudged.iter().zip(runs.per_variant.iter_mut()) {
+        for (pair, run) in pairs.iter().zip(variant_runs.iter_mut()) {
+            let flag = scans
+                .get(&pair.source)
+                .or_else(|| scans.get(&pair.reference));
+            if let (Some(flag), PairStatus::Ok) = (flag, &run.status) {
+                run.status = flag.clone();
+            }
+        }
     }
 }
 

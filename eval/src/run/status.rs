@@ -75,6 +75,19 @@ pub enum PairStatus {
         /// return). The result kept is this one when the two lie in different basins.
         with: Isometry2<f64>,
     },
+    /// Registered, but one of its scans fits neither neighbour by the registrations that place
+    /// its detector's neighbours (`run::moving`): both are flagged as not seeing one scene
+    /// (no overlap, suspect, dynamic, failed), and so is the variant's own registration on one
+    /// side of it. What moves in the scan cannot be judged, and a scene that mostly moves
+    /// would go unnoticed.
+    Isolated {
+        /// The scan.
+        scan: usize,
+        /// The placing registration of the scan before onto it, flagged: its status and reason.
+        before: String,
+        /// …and of it onto the scan after.
+        after: String,
+    },
     /// No registration: the method refused the input or broke down.
     Failed {
         /// The error, as the method said it.
@@ -100,6 +113,8 @@ pub enum StatusKind {
     Inconsistent,
     /// See [`PairStatus::Dynamic`].
     Dynamic,
+    /// See [`PairStatus::Isolated`].
+    Isolated,
     /// See [`PairStatus::Failed`].
     Failed,
 }
@@ -142,6 +157,7 @@ impl PairStatus {
             Self::Ambiguous { .. } => StatusKind::Ambiguous,
             Self::Inconsistent { .. } => StatusKind::Inconsistent,
             Self::Dynamic { .. } => StatusKind::Dynamic,
+            Self::Isolated { .. } => StatusKind::Isolated,
             Self::Failed { .. } => StatusKind::Failed,
         }
     }
@@ -219,6 +235,16 @@ impl fmt::Display for PairStatus {
                     motion(with)
                 )
             }
+            Self::Isolated {
+                scan,
+                before,
+                after,
+            } => write!(
+                f,
+                "scan {scan} fits neither neighbour by the detector's placing registrations ({} → {scan}: {before}; {scan} → {}: {after}): what moves in it cannot be judged",
+                scan.saturating_sub(1),
+                scan + 1
+            ),
             Self::Failed { error } => write!(f, "{error}"),
         }
     }
