@@ -92,7 +92,7 @@ pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [
 /// for that round's M-step (EM itself never lowers it).
 ///
 /// Stops when a round moves no axis by more than `tolerance` (relative), when an EM round
-/// raises the log-likelihood by at most `likelihood_tolerance` nats per scan (an axis heading
+/// raises the log-likelihood by at most `likelihood_tolerance` nats per scan (and not below 0) (an axis heading
 /// for 0 never settles in `q`, but the likelihood does), or after `max_rounds` EM rounds;
 /// returns `Qc` and the EM rounds taken.
 pub(crate) fn estimate(
@@ -117,7 +117,10 @@ pub(crate) fn estimate(
     let settled =
         |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance * y);
     let per_scan = (times_s.len() - 1) as f64;
-    let flat = |from: f64, to: f64| to - from <= stop.likelihood_tolerance * per_scan;
+    // A round that lowered the likelihood says the approximation (Huber weights, a nonlinear
+    // model) is off there, not that EM settled: only a small gain stops.
+    let flat =
+        |from: f64, to: f64| (0.0..=stop.likelihood_tolerance * per_scan).contains(&(to - from));
     let mut q0 = qc0;
     while em.rounds < stop.max_rounds {
         let (q1, e0) = em.round(q0)?;
