@@ -203,6 +203,7 @@ def run(
     covariance: str = "extended",
     estimates: Sequence[str] = (),
     lags: int = 1,
+    sequence: Sequence[str] | str = (),
     matcher: str | None = None,
     huber_c: float | None = None,
     seed: int | None = None,
@@ -215,7 +216,9 @@ def run(
     and weightings {NAME: (BASE_VARIANT, fn)} over every consecutive pair of uri; writes the
     run's files into out and returns summary.json as a dict (its units are in its keys'
     suffixes: _m, _deg, _mps, _dps, _s; eval/README.md documents it). lags > 1 also registers
-    k → k+ℓ for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does. reference_offset: scans
+    k → k+ℓ for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does. sequence (["batch",
+    "causal"] or "batch,causal", as --sequence) adds the smoothed estimators V+batch, V+causal
+    of each variant with a covariance, sequence.csv and V+causal.nmea. reference_offset: scans
     (the default, 0, never applies an offset) or "auto" (the estimated one);
     reference_offset and reference_checks are refused on a dataset without a reference."""
 

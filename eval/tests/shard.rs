@@ -691,6 +691,11 @@ fn sequence_shards_smooth_at_the_merge_as_the_single_run() {
         let sequence = std::fs::read_to_string(merged.join("sequence.csv")).unwrap();
         // 30 scans for each of PL_ICP+batch, PL_ICP+causal, GICP+batch, GICP+causal.
         assert_eq!(sequence.lines().count(), 1 + 4 * 30);
+        // The causal estimators' live sentences, four per scan, written at the merge too.
+        for v in ["PL_ICP", "GICP"] {
+            let nmea = std::fs::read_to_string(merged.join(format!("{v}+causal.nmea"))).unwrap();
+            assert_eq!(nmea.split_terminator("\r\n").count(), 4 * 30);
+        }
         let pairs = std::fs::read_to_string(merged.join("pairs.csv")).unwrap();
         assert_eq!(
             pairs

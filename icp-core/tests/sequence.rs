@@ -404,6 +404,38 @@ fn qc_is_recovered_from_motion_drawn_from_the_prior() {
     assert!(fused < 0.5 * pairwise, "fused {fused} pairwise {pairwise}");
 }
 
+/// An axis that does not move (the sway of a vessel that does not drift) sends its `q`
+/// towards 0, which EM approaches sublinearly, so `q` never settles: the estimation stops on
+/// the likelihood, well before its cap, with the moving axes' `Qc` recovered.
+#[test]
+fn an_axis_that_does_not_move_stops_the_estimation_on_the_likelihood() {
+    let qc = [0.05, 1e-12, 2e-4];
+    let run = simulate(35_006, 865, 3, qc, false);
+    let options = SmootherOptions::default();
+    let out = smooth(&run.times_s, &run.regs, Mode::Batch, &options).unwrap();
+    let ProcessNoise::Estimate { max_iterations, .. } = options.process_noise else {
+        panic!("the default estimates Qc");
+    };
+    assert!(
+        out.em_iterations < max_iterations / 2,
+        "{} rounds (cap {max_iterations}), Qc {:?}",
+        out.em_iterations,
+        out.qc
+    );
+    for a in [0, 2] {
+        let ratio = out.qc[a] / qc[a];
+        assert!(
+            (0.7..=1.3).contains(&ratio),
+            "axis {a}: estimated {} true {} (×{ratio:.3}) after {} rounds",
+            out.qc[a],
+            qc[a],
+            out.em_iterations
+        );
+    }
+    // The still axis: its q far below the moving ones' (in the same units as the surge's).
+    assert!(out.qc[1] < 1e-3 * qc[0], "sway q {}", out.qc[1]);
+}
+
 #[test]
 fn bad_input_is_refused_with_typed_errors() {
     let run = simulate(35_006, 10, 2, [0.02, 0.01, 1e-4], false);

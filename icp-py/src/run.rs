@@ -18,6 +18,7 @@ use eval::run::init::InitChain;
 use eval::run::options::BuiltinOptions;
 use eval::run::options::RunOptions;
 use eval::run::options::{override_sensor, refuse_reference_options};
+use eval::run::sequence_setup::SequenceMode;
 use eval::run::setup::GlobalChecks;
 use eval::run::setup::OffsetChoice;
 use eval::run::setup::ReferenceChecks;
@@ -37,7 +38,7 @@ use crate::register::variant_spec;
 use crate::weighting::PyWeighting;
 
 /// The keyword options, named as the command line's flags (with `_` for `-`).
-const OPTIONS: [&str; 17] = [
+const OPTIONS: [&str; 18] = [
     "reference_offset",
     "reference_checks",
     "init",
@@ -48,6 +49,7 @@ const OPTIONS: [&str; 17] = [
     "covariance",
     "estimates",
     "lags",
+    "sequence",
     "matcher",
     "huber_c",
     "seed",
@@ -148,8 +150,37 @@ impl<'py> Options<'py> {
             covariance: self.parse::<CovarianceMode>("covariance", "extended")?,
             estimates,
             lags: self.parse::<usize>("lags", "1")?,
-            sequence: Vec::new(),
+            sequence: self.sequence()?,
         })
+    }
+
+    /// `--sequence`'s modes: a list of words (`["batch", "causal"]`) or the command line's
+    /// comma-separated text (`"batch,causal"`); none by default.
+    fn sequence(&self) -> PyResult<Vec<SequenceMode>> {
+        let Some(v) = self.raw("sequence")? else {
+            return Ok(Vec::new());
+        };
+        let words: Vec<String> = match v.extract::<String>() {
+            Ok(text) => text.split(',').map(str::to_owned).collect(),
+            Err(_) => v.extract().map_err(|_| {
+                ConfigError::new_err(format!(
+                    "option sequence: expected a list of modes or \"batch,causal\", got {}",
+                    v.repr().map_or_else(|_| "?".to_owned(), |r| r.to_string())
+                ))
+            })?,
+        };
+        words
+            .iter()
+            .map(|w| {
+                serde_json::from_value(serde_json::Value::String(w.trim().to_owned())).map_err(
+                    |_| {
+                        ConfigError::new_err(format!(
+                            "option sequence: unknown mode {w:?}: expected batch or causal"
+                        ))
+                    },
+                )
+            })
+            .collect()
     }
 
     /// The sensor overrides: a dict of `sigma_r_const_m`, `sigma_r_per_m`, `sigma_alpha_deg`,

@@ -177,6 +177,9 @@ def test_a_bad_weighting_names_the_variant_and_the_iteration(tmp_path, fn, messa
         (dict(threads=0), icp_bench.ConfigError, "option threads: at least 1"),
         (dict(lags=0), icp_bench.ConfigError, "--lags 0: a lag is at least 1"),
         (dict(lags=99), icp_bench.ConfigError, "--lags 99: the run has 7 pairs"),
+        (dict(sequence=["sideways"]), icp_bench.ConfigError,
+         'option sequence: unknown mode "sideways"'),
+        (dict(sequence=3), icp_bench.ConfigError, "option sequence: expected a list of modes"),
         (dict(colour="red"), icp_bench.ConfigError, 'unknown option "colour"'),
         (dict(variants=[]), icp_bench.ConfigError, "no variant to run"),
     ],
@@ -229,6 +232,43 @@ def test_lags_write_the_loops_the_command_line_writes(tmp_path, icp_eval):
     plain = icp_bench.run(SMALL, ["HD_ICP"], out=tmp_path / "plain", plots=False)
     assert plain["config"]["lags"] == 1
     assert not (tmp_path / "plain" / "cycles.csv").exists()
+
+
+def test_sequence_gives_the_fused_figures_the_command_line_gives(tmp_path, icp_eval):
+    import subprocess
+
+    py = tmp_path / "py"
+    s = icp_bench.run(SMALL, ["HD_ICP", "PL_ICP"], out=py, plots=False, lags=2,
+                      sequence=["batch", "causal"])
+    # Point-to-point HD_ICP has no covariance to smooth with: PL_ICP alone is smoothed.
+    assert [v["name"] for v in s["variants"]] == [
+        "HD_ICP", "PL_ICP", "PL_ICP+batch", "PL_ICP+causal"]
+    assert [q["method"] for q in s["sequence"]] == ["PL_ICP+batch", "PL_ICP+causal"]
+    cli = tmp_path / "cli"
+    subprocess.run([icp_eval, "run", "--dataset", SMALL, "--variants", "HD_ICP,PL_ICP",
+                    "--lags", "2", "--sequence", "batch,causal", "--no-plots", "--quiet",
+                    "--out", cli], check=True, capture_output=True)
+    # The fused figures hold no timing: byte for byte.
+    for name in ["sequence.csv", "PL_ICP+causal.nmea"]:
+        assert (py / name).read_bytes() == (cli / name).read_bytes(), name
+    assert len((py / "sequence.csv").read_text().splitlines()) == 1 + 2 * 8
+    with open(cli / "summary.json") as f:
+        summary = json.load(f)
+    assert s["sequence"] == summary["sequence"]
+    for ours, theirs in zip(s["variants"][2:], summary["variants"][2:], strict=True):
+        assert ours["all_pairs"] == theirs["all_pairs"]
+        assert ours["consistency"] == theirs["consistency"]
+    with open(py / "pairs.csv", newline="") as a, open(cli / "pairs.csv", newline="") as b:
+        fused = [
+            [{k: v for k, v in row.items() if k != "time_us"}
+             for row in csv.DictReader(f) if "+" in row["variant"]]
+            for f in (a, b)
+        ]
+    assert len(fused[0]) == 2 * 7 and fused[0] == fused[1]
+    # The command line's comma-separated text is taken too.
+    again = icp_bench.run(SMALL, ["PL_ICP"], out=tmp_path / "text", plots=False, lags=2,
+                          sequence="batch,causal")
+    assert again["sequence"][0]["qc"] == s["sequence"][0]["qc"]
 
 
 def test_a_python_variant_enters_compare_and_the_gate(tmp_path, icp_eval):

@@ -15,15 +15,16 @@ pub mod figures;
 pub mod html;
 pub mod json;
 pub mod markdown;
+pub mod nmea;
 pub mod outdir;
 pub mod published;
 pub mod studies;
 pub mod tum;
 
 /// Writes every output of a run into `out`: `summary.json` and `config.json`, `pairs.csv`,
-/// `table.md`, one TUM trajectory per variant and `reference.tum`, the evo result zips
-/// (`evo/`) where there is a reference, the figures (unless `plots` is false) and
-/// `report.html`.
+/// `sequence.csv` and `V+causal.nmea` when it smoothed, `table.md`, one TUM trajectory per
+/// variant and `reference.tum`, the evo result zips (`evo/`) where there is a reference, the
+/// figures (unless `plots` is false) and `report.html`.
 pub fn write_outputs(
     out: &mut OutputDir,
     ds: &Dataset,
@@ -32,6 +33,7 @@ pub fn write_outputs(
 ) -> Result<(), EvalError> {
     json::write(out, report)?;
     csv::write(out, report)?;
+    nmea::write(out, report)?;
     markdown::write(out, report)?;
     tum::write(out, report)?;
     evo::write_evo_results(out, ds, report)?;

@@ -44,6 +44,10 @@ pub struct SequenceRecord {
     pub scan: usize,
     /// Scan time, s.
     pub time_s: f64,
+    /// Whether an unflagged registration reaches the scan's estimate: for `V+causal` one
+    /// spanning the step into the scan (scan 0: the first step), for `V+batch` one spanning a
+    /// step next to it. Else the estimate is the prior's extrapolation alone.
+    pub supported: bool,
     /// Position in the first scan's frame, m.
     pub x_m: f64,
     pub y_m: f64,
@@ -81,6 +85,10 @@ pub struct SequenceSummary {
     pub qc: Option<[f64; 3]>,
     /// Expectation–maximisation rounds.
     pub em_rounds: usize,
+    /// Whether `sequence.csv`'s headings and courses start from the reference's heading at the
+    /// first scan (else from 0: the first scan's heading, not a true one).
+    #[serde(default)]
+    pub heading_from_reference: bool,
     /// Why it gave nothing, if so.
     pub error: Option<String>,
 }
@@ -181,7 +189,7 @@ fn smooth_variant(
             Estimator {
                 runs: pair_runs(run.pairs, run.scans, own, &out),
                 records: match &out {
-                    Ok(s) => records(run.ds, &name, run.scans, run.times, s),
+                    Ok(s) => records(run, &name, mode, s),
                     Err(_) => Vec::new(),
                 },
                 summary: SequenceSummary {
@@ -190,6 +198,7 @@ fn smooth_variant(
                     left_out,
                     qc: batch.as_ref().ok().map(|b| b.qc),
                     em_rounds: batch.as_ref().map_or(0, |b| b.em_iterations),
+                    heading_from_reference: first_heading_deg(run).is_some(),
                     error: out.as_ref().err().map(|e| e.to_string()),
                 },
             }
@@ -317,28 +326,39 @@ fn fused(step: &sequence::StepEstimate, own: &PairRun) -> Registration {
     }
 }
 
+/// The reference's heading at the run's first scan, degrees clockwise, if it has one.
+fn first_heading_deg(run: &Scans<'_>) -> Option<f64> {
+    match (run.scans, run.times) {
+        ([a, b, ..], [ta, tb, ..]) => data::motion(run.ds, *a, *b, tb - ta).map(|m| m.hdg0_deg),
+        _ => None,
+    }
+}
+
+/// Whether scan `k`'s estimate in `mode` rests on a registration (see
+/// [`SequenceRecord::supported`]).
+fn scan_supported(s: &Smoothed, mode: SequenceMode, k: usize) -> bool {
+    let step = |i: usize| s.steps.get(i).is_some_and(|e| e.supported);
+    match mode {
+        SequenceMode::Causal => step(k.max(1) - 1),
+        SequenceMode::Batch => step(k) || (k > 0 && step(k - 1)),
+    }
+}
+
 /// `sequence.csv`'s rows of one estimator.
-fn records(
-    ds: &Dataset,
-    name: &str,
-    scans: &[usize],
-    times: &[f64],
-    s: &Smoothed,
-) -> Vec<SequenceRecord> {
+fn records(run: &Scans<'_>, name: &str, mode: SequenceMode, s: &Smoothed) -> Vec<SequenceRecord> {
+    let (ds, scans, times) = (run.ds, run.scans, run.times);
     // Heading clockwise: a turn θ of the scan frame (counter-clockwise bearings) is −θ.
     let sign = match ds.bearing_sense {
         BearingSense::CounterClockwise => -1.0,
         BearingSense::Clockwise => 1.0,
     };
-    let hdg0 = match scans {
-        [a, b, ..] => data::motion(ds, *a, *b, times[1] - times[0]).map_or(0.0, |m| m.hdg0_deg),
-        _ => 0.0,
-    };
+    let hdg0 = first_heading_deg(run).unwrap_or(0.0);
     scans
         .iter()
         .zip(times)
         .zip(&s.scans)
-        .map(|((&scan, &time_s), e)| {
+        .enumerate()
+        .map(|(k, ((&scan, &time_s), e))| {
             let c = &e.cov;
             let (u, v) = (e.twist.x, e.twist.y);
             let speed = u.hypot(v);
@@ -358,6 +378,7 @@ fn records(
                 method: name.to_owned(),
                 scan,
                 time_s,
+                supported: scan_supported(s, mode, k),
                 x_m: e.pose.x,
                 y_m: e.pose.y,
                 x_sigma_m: c[(0, 0)].max(0.0).sqrt(),

@@ -40,8 +40,9 @@ impl Band {
         self.vals[j * (self.b + 1) + (i - j)] = v;
     }
 
-    /// The band of the inverse of this positive-definite matrix.
-    pub fn inverse_band(&self) -> Result<Band, SequenceError> {
+    /// The band of the inverse of this positive-definite matrix, and the natural logarithm of
+    /// its determinant (`2 Σ ln L_jj`, from the same factor).
+    pub fn inverse_band(&self) -> Result<(Band, f64), SequenceError> {
         let (n, b) = (self.n, self.b);
         let fail = SequenceError::Factorisation {
             what: "band marginals",
@@ -73,6 +74,7 @@ impl Band {
         }
         // `l.at(i, j)` for i < j would read the lower entry back: use `lower` to be explicit.
         let lower = |i: usize, j: usize| if i >= j { l.at(i, j) } else { 0.0 };
+        let log_det = 2.0 * (0..n).map(|j| lower(j, j).ln()).sum::<f64>();
         let mut s = Band::zeros(n, b);
         for j in (0..n).rev() {
             let ljj = lower(j, j);
@@ -86,7 +88,7 @@ impl Band {
                 s.set(i, j, (delta - acc) / ljj);
             }
         }
-        Ok(s)
+        Ok((s, log_det))
     }
 }
 
@@ -96,7 +98,7 @@ mod tests {
     use nalgebra::DMatrix;
 
     #[test]
-    fn the_band_of_the_inverse_matches_a_dense_inverse() {
+    fn the_band_of_the_inverse_and_the_log_determinant_match_dense_ones() {
         let (n, b) = (40, 5);
         let mut band = Band::zeros(n, b);
         let mut dense = DMatrix::zeros(n, n);
@@ -112,8 +114,10 @@ mod tests {
                 dense[(j, i)] = v;
             }
         }
+        let (s, log_det) = band.inverse_band().unwrap();
+        let dense_log_det = dense.clone().cholesky().unwrap().determinant().ln();
+        assert!((log_det - dense_log_det).abs() < 1e-10 * dense_log_det.abs());
         let inv = dense.try_inverse().unwrap();
-        let s = band.inverse_band().unwrap();
         for j in 0..n {
             for i in j..(j + b + 1).min(n) {
                 assert!((s.at(i, j) - inv[(i, j)]).abs() < 1e-12, "({i}, {j})");

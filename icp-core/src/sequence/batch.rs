@@ -133,7 +133,7 @@ pub(crate) fn linearise(
 }
 
 /// Gauss–Newton from `est` until the largest step is below `tolerance` or after
-/// `max_iterations`; leaves `sys` linearised at the result and returns the iterations taken.
+/// `max_iterations`; leaves `sys` linearised at the result and returns the cost there.
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -141,8 +141,8 @@ pub(crate) fn solve(
     layout: &Layout,
     max_iterations: usize,
     tolerance: f64,
-) -> Result<usize, SequenceError> {
-    for iteration in 1..=max_iterations {
+) -> Result<f64, SequenceError> {
+    for _ in 0..max_iterations {
         linearise(model, est, layout, sys);
         let delta = sys.step(&sys.factor()?);
         if delta.iter().any(|d| !d.is_finite()) {
@@ -150,22 +150,30 @@ pub(crate) fn solve(
         }
         layout.apply(model.geometry, est, &delta);
         if delta.iter().all(|d| d.abs() <= tolerance) {
-            linearise(model, est, layout, sys);
-            return Ok(iteration);
+            break;
         }
     }
-    linearise(model, est, layout, sys);
-    Ok(max_iterations)
+    Ok(linearise(model, est, layout, sys))
 }
 
-/// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero) and the
-/// cross-covariance `Σ_k,k+1` of consecutive scans: the band of `H⁻¹` (see [`Band`]) of the
-/// system linearised at the solution.
+/// The marginals of a solution (see [`marginals`]).
+pub(crate) struct Marginals {
+    /// Each scan's `[pose; twist]` covariance (scan 0's pose rows zero).
+    pub own: Vec<Matrix6>,
+    /// `Σ_k,k+1` of consecutive scans.
+    pub cross: Vec<Matrix6>,
+    /// `ln det H` of the system.
+    pub log_det_h: f64,
+}
+
+/// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero), the
+/// cross-covariance `Σ_k,k+1` of consecutive scans, and `ln det H`: from the band of `H⁻¹`
+/// (see [`Band`]) of the system linearised at the solution.
 pub(crate) fn marginals(
     sys: &SparseSystem,
     layout: &Layout,
     n_states: usize,
-) -> Result<(Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
+) -> Result<Marginals, SequenceError> {
     let m = sys.mat.as_ref();
     let (col_ptr, row_idx, vals) = (m.symbolic().col_ptr(), m.symbolic().row_idx(), m.val());
     let n = layout.dim();
@@ -183,7 +191,7 @@ pub(crate) fn marginals(
             h.set(c, row_idx[p], vals[p]);
         }
     }
-    let sigma = h.inverse_band()?;
+    let (sigma, log_det_h) = h.inverse_band()?;
     let block = |a: usize, b: usize| -> Matrix6 {
         let mut out = Matrix6::zeros();
         for (sa, ba) in layout.state_blocks(a).into_iter().enumerate() {
@@ -199,9 +207,11 @@ pub(crate) fn marginals(
         }
         out
     };
-    let own = (0..n_states).map(|k| block(k, k)).collect();
-    let cross = (0..n_states.saturating_sub(1))
-        .map(|k| block(k, k + 1))
-        .collect();
-    Ok((own, cross))
+    Ok(Marginals {
+        own: (0..n_states).map(|k| block(k, k)).collect(),
+        cross: (0..n_states.saturating_sub(1))
+            .map(|k| block(k, k + 1))
+            .collect(),
+        log_det_h,
+    })
 }

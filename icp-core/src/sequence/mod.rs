@@ -93,10 +93,13 @@ pub enum Geometry {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ProcessNoise {
     /// Expectation–maximisation from the data, until every axis changes by less than
-    /// `tolerance` (relative) or after `max_iterations` rounds.
+    /// `tolerance` (relative), or an EM round raises the log-likelihood of the registrations
+    /// (Laplace's approximation) by at most `likelihood_tolerance` nats per scan, or after
+    /// `max_iterations` rounds.
     Estimate {
         max_iterations: usize,
         tolerance: f64,
+        likelihood_tolerance: f64,
     },
     /// Given: `[surge m²/s³, sway m²/s³, yaw rad²/s³]`.
     Fixed([f64; 3]),
@@ -133,6 +136,7 @@ impl Default for SmootherOptions {
             process_noise: ProcessNoise::Estimate {
                 max_iterations: 50,
                 tolerance: 1e-3,
+                likelihood_tolerance: 1e-5,
             },
             huber_k: 3.37,
             max_iterations: 20,
@@ -217,14 +221,18 @@ pub fn smooth(
         ProcessNoise::Estimate {
             max_iterations,
             tolerance,
+            likelihood_tolerance,
         } => noise::estimate(
             options,
             times_s,
             &regs,
             init.clone(),
             noise::initial_qc(options.geometry, times_s, &regs),
-            max_iterations,
-            tolerance,
+            &noise::EmStop {
+                max_rounds: max_iterations,
+                tolerance,
+                likelihood_tolerance,
+            },
         )?,
     };
     let model = Model {
@@ -237,8 +245,8 @@ pub fn smooth(
     };
     let (scans, steps) = match mode {
         Mode::Batch => {
-            let (est, own, cross) = noise::batch_with_marginals(&model, init, options)?;
-            outputs(&model, &est, &own, &cross)
+            let (est, m) = noise::batch_with_marginals(&model, init, options)?;
+            outputs(&model, &est, &m.own, &m.cross)
         }
         Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,
     };
@@ -281,10 +289,18 @@ fn validate_options(o: &SmootherOptions) -> Result<(), SequenceError> {
         ProcessNoise::Fixed(qc) if qc.iter().any(|q| !(q.is_finite() && *q > 0.0)) => {
             bad("process_noise", "each Qc must be finite and positive")
         }
-        ProcessNoise::Estimate { tolerance, .. } if !(tolerance.is_finite() && tolerance > 0.0) => {
+        ProcessNoise::Estimate {
+            tolerance,
+            likelihood_tolerance,
+            ..
+        } if !(tolerance.is_finite()
+            && tolerance > 0.0
+            && likelihood_tolerance.is_finite()
+            && likelihood_tolerance >= 0.0) =>
+        {
             bad(
                 "process_noise",
-                "the EM tolerance must be finite and positive",
+                "the EM tolerances must be finite, and positive (the likelihood's may be 0)",
             )
         }
         _ => Ok(()),

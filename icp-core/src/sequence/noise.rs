@@ -4,7 +4,7 @@
 
 use nalgebra::SMatrix;
 
-use super::batch::{self, SparseSystem};
+use super::batch::{self, Marginals, SparseSystem};
 use super::factors::{self, Matrix6};
 use super::system::{Estimates, Layout, Model, Reg};
 use super::{full_layout, Geometry, SequenceError, SmootherOptions};
@@ -18,22 +18,23 @@ pub(crate) fn batch_with_marginals(
     model: &Model<'_>,
     est: Estimates,
     options: &SmootherOptions,
-) -> Result<(Estimates, Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
+) -> Result<(Estimates, Marginals), SequenceError> {
     let layout = full_layout(est.poses.len());
     let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
-    solve_with_marginals(model, est, &mut sys, &layout, options)
+    let (est, marginals, _) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
+    Ok((est, marginals))
 }
 
 /// [`batch_with_marginals`] on the system `sys` already laid out (its symbolic factorisation
-/// made once for every round of the estimation).
+/// made once for every round of the estimation); also the cost at the solution.
 fn solve_with_marginals(
     model: &Model<'_>,
     mut est: Estimates,
     sys: &mut SparseSystem,
     layout: &Layout,
     options: &SmootherOptions,
-) -> Result<(Estimates, Vec<Matrix6>, Vec<Matrix6>), SequenceError> {
-    batch::solve(
+) -> Result<(Estimates, Marginals, f64), SequenceError> {
+    let cost = batch::solve(
         model,
         &mut est,
         sys,
@@ -41,8 +42,16 @@ fn solve_with_marginals(
         options.max_iterations,
         options.tolerance,
     )?;
-    let (own, cross) = batch::marginals(sys, layout, est.poses.len())?;
-    Ok((est, own, cross))
+    let marginals = batch::marginals(sys, layout, est.poses.len())?;
+    Ok((est, marginals, cost))
+}
+
+/// The log-likelihood of the registrations given `qc`, by Laplace's approximation at the
+/// solution, up to a constant: `−J − ½ ln det H − ½ Σ_k ln det Q_k`, J the cost there (robust
+/// registrations' and priors'), H its Gauss–Newton Hessian and `Q_k = A_k ⊗ Qc` the priors'
+/// covariances, whose `ln det` is `2 Σ_axis ln q` plus what does not depend on `Qc`.
+fn log_evidence(qc: &[f64; 3], priors: usize, cost: f64, log_det_h: f64) -> f64 {
+    -cost - 0.5 * log_det_h - priors as f64 * qc.iter().map(|q| q.ln()).sum::<f64>()
 }
 
 /// A first `Qc` from the data: per axis, the mean squared change of the lag-1 registrations'
@@ -73,19 +82,26 @@ pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [
 }
 
 /// Expectation–maximisation of `Qc` from `qc0`, accelerated by SQUAREM (Varadhan & Roland
-/// 2008) on `ln Qc`: two EM rounds give the step `r` and its change `v`, the extrapolation
-/// `ln q₀ − 2αr + α²v` (`α = −‖r‖/‖v‖`, at most −1: no slower than plain EM) is followed by
-/// one EM round, which keeps every `q` an M-step's value. Stops when a round moves no axis by
-/// more than `tolerance` (relative) or after `max_rounds` EM rounds; returns `Qc` and the EM
-/// rounds taken.
+/// 2008) on `ln Qc`, axis by axis: two EM rounds give each axis' step `r` and its change `v`,
+/// the extrapolation `ln q₀ − 2αr + α²v` (`α = −|r|/|v|`, at most −1: no slower than plain EM)
+/// is followed by one EM round, which keeps every `q` an M-step's value. Each axis takes its
+/// own `α` because the axes converge at their own rates: an axis whose `q` heads for 0 does so
+/// geometrically (sublinear EM, `v ≈ 0`, a long jump), while one that has settled oscillates
+/// (a short one); one `α` for all would overshoot the settled axes. An extrapolation that
+/// lowers the log-likelihood ([`log_evidence`]) below the second EM round's start is dropped
+/// for that round's M-step (EM itself never lowers it).
+///
+/// Stops when a round moves no axis by more than `tolerance` (relative), when an EM round
+/// raises the log-likelihood by at most `likelihood_tolerance` nats per scan (and not below 0) (an axis heading
+/// for 0 never settles in `q`, but the likelihood does), or after `max_rounds` EM rounds;
+/// returns `Qc` and the EM rounds taken.
 pub(crate) fn estimate(
     options: &SmootherOptions,
     times_s: &[f64],
     regs: &[Reg],
     est: Estimates,
     qc0: [f64; 3],
-    max_rounds: usize,
-    tolerance: f64,
+    stop: &EmStop,
 ) -> Result<([f64; 3], usize), SequenceError> {
     let mut em = Em {
         options,
@@ -97,40 +113,59 @@ pub(crate) fn estimate(
         rounds: 0,
         twist0: super::twist0(options)?,
     };
+    let tolerance = stop.tolerance;
     let settled =
         |a: &[f64; 3], b: &[f64; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tolerance * y);
+    let per_scan = (times_s.len() - 1) as f64;
+    // A round that lowered the likelihood says the approximation (Huber weights, a nonlinear
+    // model) is off there, not that EM settled: only a small gain stops.
+    let flat =
+        |from: f64, to: f64| (0.0..=stop.likelihood_tolerance * per_scan).contains(&(to - from));
     let mut q0 = qc0;
-    while em.rounds < max_rounds {
-        let q1 = em.round(q0)?;
-        if settled(&q1, &q0) || em.rounds + 2 > max_rounds {
+    while em.rounds < stop.max_rounds {
+        let (q1, e0) = em.round(q0)?;
+        if settled(&q1, &q0) || em.rounds + 2 > stop.max_rounds {
             return Ok((q1, em.rounds));
         }
-        let q2 = em.round(q1)?;
+        let (q2, e1) = em.round(q1)?;
+        if settled(&q2, &q1) || flat(e0, e1) {
+            return Ok((q2, em.rounds));
+        }
         let (l0, l1, l2) = (q0.map(f64::ln), q1.map(f64::ln), q2.map(f64::ln));
-        let r: Vec<f64> = (0..3).map(|a| l1[a] - l0[a]).collect();
-        let v: Vec<f64> = (0..3).map(|a| l2[a] - 2.0 * l1[a] + l0[a]).collect();
-        let norm = |x: &[f64]| x.iter().map(|e| e * e).sum::<f64>().sqrt();
-        let alpha = if norm(&v) > 0.0 {
-            (-norm(&r) / norm(&v)).min(-1.0)
-        } else {
-            -1.0
-        };
         let jump: [f64; 3] = std::array::from_fn(|a| {
-            (l0[a] - 2.0 * alpha * r[a] + alpha * alpha * v[a])
+            let (r, v) = (l1[a] - l0[a], l2[a] - 2.0 * l1[a] + l0[a]);
+            let alpha = if v != 0.0 {
+                (-r.abs() / v.abs()).min(-1.0)
+            } else {
+                -1.0
+            };
+            (l0[a] - 2.0 * alpha * r + alpha * alpha * v)
                 .exp()
                 .max(Q_FLOOR)
         });
-        let q3 = em.round(if jump.iter().all(|q| q.is_finite()) {
-            jump
-        } else {
-            q2
-        })?;
-        if settled(&q3, &q2) {
-            return Ok((q3, em.rounds));
+        if !jump.iter().all(|q| q.is_finite()) {
+            q0 = q2;
+            continue;
         }
-        q0 = q3;
+        // An extrapolation the smoother cannot solve, or that lost likelihood: EM's q2.
+        match em.round(jump) {
+            Ok((q3, e_jump)) if e_jump >= e1 => {
+                if settled(&q3, &q2) {
+                    return Ok((q3, em.rounds));
+                }
+                q0 = q3;
+            }
+            _ => q0 = q2,
+        }
     }
     Ok((q0, em.rounds))
+}
+
+/// When the estimation of `Qc` stops (see [`estimate`]).
+pub(crate) struct EmStop {
+    pub max_rounds: usize,
+    pub tolerance: f64,
+    pub likelihood_tolerance: f64,
 }
 
 /// The state of an estimation: the system (laid out, and symbolically factorised, once) and
@@ -147,8 +182,9 @@ struct Em<'a> {
 }
 
 impl Em<'_> {
-    /// One EM round from `qc`: smooth (the E-step), then the M-step.
-    fn round(&mut self, qc: [f64; 3]) -> Result<[f64; 3], SequenceError> {
+    /// One EM round from `qc`: smooth (the E-step), then the M-step; also the log-likelihood
+    /// of `qc` ([`log_evidence`]).
+    fn round(&mut self, qc: [f64; 3]) -> Result<([f64; 3], f64), SequenceError> {
         let model = Model {
             geometry: self.options.geometry,
             times_s: self.times_s,
@@ -161,19 +197,14 @@ impl Em<'_> {
             Some(sys) => sys,
             none => none.insert(SparseSystem::new(&model, &self.layout, self.times_s.len())?),
         };
-        let est = std::mem::replace(
-            &mut self.est,
-            Estimates {
-                poses: Vec::new(),
-                twists: Vec::new(),
-            },
-        );
-        let (smoothed, own, cross) =
-            solve_with_marginals(&model, est, sys, &self.layout, self.options)?;
-        let next = m_step(&model, &smoothed, &own, &cross);
+        // From the last round's solution, kept should this one fail.
+        let (smoothed, marginals, cost) =
+            solve_with_marginals(&model, self.est.clone(), sys, &self.layout, self.options)?;
+        let next = m_step(&model, &smoothed, &marginals.own, &marginals.cross);
+        let evidence = log_evidence(&qc, self.times_s.len() - 1, cost, marginals.log_det_h);
         self.est = smoothed;
         self.rounds += 1;
-        Ok(next)
+        Ok((next, evidence))
     }
 }
 
