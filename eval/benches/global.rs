@@ -16,7 +16,11 @@
 //! The ambiguity of a result (`global/<data>-check/ambiguity`, issue 36): HD_GICP's result of
 //! each pair scored on the lattice around it on a grid built beforehand (what the extended
 //! covariance adds per registration, `icp_core::global::ambiguity`), beside HD_GICP's
-//! registration of the pair from the identity (`register`) for its scale.
+//! registration of the pair from the identity (`register`) for its scale; and the results of
+//! the four point-to-line and GICP variants of each pair, started at the global search's best
+//! pose as `--init global` starts them, each on a lattice of its own (`ambiguity-four`) and on
+//! the pair's shared scores as `icp-eval run` scores them (`ambiguity-four-shared`,
+//! `icp_core::global::ambiguity::LatticeScores`).
 //!
 //! The aces log is looked for as `$ICP_DATA_DIR/carmen/aces.log.gz` or
 //! `$ICP_DATA_DIR/aces.log.gz` (a relative `ICP_DATA_DIR` from the workspace root), then in
@@ -32,7 +36,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use datasets::carmen::{load, CarmenOptions};
 use datasets::synthetic::{generate, Scenario};
 use eval::run::status::clearly_better;
-use icp_core::global::ambiguity::{ambiguity, AmbiguityParams};
+use icp_core::global::ambiguity::{ambiguity, AmbiguityParams, LatticeScores};
 use icp_core::global::{
     score_at, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool, RotationMode,
 };
@@ -115,35 +119,52 @@ fn modes(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
     group.finish();
 }
 
-/// HD_GICP's result of each pair, registered from the identity.
-fn results(pairs: &[(Owned, Owned)]) -> Vec<Isometry2<f64>> {
-    let reg = builtin("HD_GICP")
-        .expect("built in")
-        .build()
-        .expect("valid");
+/// The variants whose results `ambiguity-four` scores.
+const FOUR: [&str; 4] = ["PL_ICP", "HD_PL_ICP", "GICP", "HD_GICP"];
+
+/// `variant`'s result of each pair, registered from `starts` (one per pair; the start where
+/// the registration fails: the lattice is timed there).
+fn results(
+    variant: &str,
+    pairs: &[(Owned, Owned)],
+    starts: &[Isometry2<f64>],
+) -> Vec<Isometry2<f64>> {
+    let reg = builtin(variant).expect("built in").build().expect("valid");
     let mut workspace = Workspace::default();
     pairs
         .iter()
-        .map(|(source, reference)| {
+        .zip(starts)
+        .map(|((source, reference), &start)| {
             reg.register_prepared(
                 &mut workspace,
                 source.prepared(),
                 reference.prepared(),
-                Isometry2::identity(),
+                start,
             )
-            .expect("a registration")
-            .t_ref_src
+            .map_or(start, |r| r.t_ref_src)
         })
         .collect()
 }
 
 /// The check of HD_GICP's results on `pairs` (see the module doc).
 fn check(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
-    let results = results(pairs);
     let params = GlobalParams::default();
+    // As `--init global` starts them: at the global search's best pose.
+    let mut workspace = GlobalWorkspace::default();
+    let guesses: Vec<Isometry2<f64>> = pairs
+        .iter()
+        .map(|(source, reference)| {
+            GlobalMatcher::new(reference.prepared(), &params)
+                .expect("a grid")
+                .search(&mut workspace, source.prepared(), Isometry2::identity())
+                .expect("a guess")
+                .t_ref_src
+        })
+        .collect();
+    let four: Vec<Vec<Isometry2<f64>>> = FOUR.iter().map(|v| results(v, pairs, &guesses)).collect();
+    let results = results("HD_GICP", pairs, &vec![Isometry2::identity(); pairs.len()]);
     let mut group = c.benchmark_group(format!("global/{name}-check"));
     group.throughput(Throughput::Elements(pairs.len() as u64));
-    let mut workspace = GlobalWorkspace::default();
     let mut pool = GridPool::default();
     group.bench_function("check", |b| {
         b.iter(|| {
@@ -200,6 +221,30 @@ fn check(c: &mut Criterion, name: &str, pairs: &[(Owned, Owned)]) {
             for (((source, _), result), matcher) in pairs.iter().zip(&results).zip(&matchers) {
                 // A problem is an answer too: timed either way.
                 let _ = ambiguity(matcher.grid(), &source.scan, result, &ambiguity_params);
+            }
+        })
+    });
+    group.bench_function("ambiguity-four", |b| {
+        b.iter(|| {
+            for (k, ((source, _), matcher)) in pairs.iter().zip(&matchers).enumerate() {
+                for variant in &four {
+                    let _ = ambiguity(matcher.grid(), &source.scan, &variant[k], &ambiguity_params);
+                }
+            }
+        })
+    });
+    group.bench_function("ambiguity-four-shared", |b| {
+        b.iter(|| {
+            for (k, ((source, _), matcher)) in pairs.iter().zip(&matchers).enumerate() {
+                let mut scores = LatticeScores::default();
+                for variant in &four {
+                    let _ = scores.ambiguity(
+                        matcher.grid(),
+                        &source.scan,
+                        &variant[k],
+                        &ambiguity_params,
+                    );
+                }
             }
         })
     });

@@ -4,7 +4,11 @@
 //! result against it ([`GlobalCheck`]), the results of a pair's variants together.
 //!
 //! The same grid scores the poses around each result (`Searched::ambiguity`): the ambiguity
-//! term of the extended covariance and the `ambiguous` flag.
+//! term of the extended covariance and the `ambiguous` flag. The lattice's sums are kept
+//! across the pair's results (`LatticeScores`): its variants' results usually sit in one basin,
+//! and a pose is summed once. Each result's answer is the one a lattice of its own gives
+//! (whatever was assessed before it, in any order), so it does not depend on which variants a
+//! shard holds, nor on the threads.
 //!
 //! A check asks only the question the suspect rule asks: does a pose score more than the
 //! result plus [`SUSPECT_SCORE_GAIN`](crate::run::status::SUSPECT_SCORE_GAIN)? The branch and bound searches above that bar alone
@@ -15,7 +19,7 @@
 use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
-use icp_core::global::ambiguity::{ambiguity, Ambiguity, AmbiguityParams, AmbiguityProblem};
+use icp_core::global::ambiguity::{Ambiguity, AmbiguityParams, AmbiguityProblem, LatticeScores};
 use icp_core::global::{
     score_at, Above, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool,
     SourceSearch,
@@ -46,6 +50,8 @@ pub(crate) struct Searched<'w> {
     matcher: GlobalMatcher,
     source: Mutex<SourceSearch<'w>>,
     guess: Option<GlobalGuess>,
+    /// The lattice sums of the source scan around the results assessed so far.
+    lattice: Mutex<LatticeScores>,
     /// Wall time of the checks so far, microseconds.
     check_us: Mutex<f64>,
 }
@@ -68,6 +74,7 @@ impl<'w> Searched<'w> {
             matcher,
             source: Mutex::new(prepared),
             guess,
+            lattice: Mutex::new(LatticeScores::default()),
             check_us: Mutex::new(0.0),
         })
     }
@@ -85,7 +92,8 @@ impl<'w> Searched<'w> {
     /// The poses around `reg`'s result (of `source`) that the reference's likelihood grid
     /// scores almost as well, with the default [`AmbiguityParams`]
     /// (`icp_core::global::ambiguity`), where `reg` is weakly conditioned (ratio below
-    /// [`WEAK_CONDITIONING`], or not known); `None` elsewhere. Its time is the checks'.
+    /// [`WEAK_CONDITIONING`], or not known); `None` elsewhere. Its time is the checks'. On the
+    /// sums the pair's results before it left (the module doc): the same answer.
     pub fn ambiguity(
         &self,
         reg: &Registration,
@@ -97,13 +105,16 @@ impl<'w> Searched<'w> {
         {
             return None;
         }
+        // Timed once the scores are this thread's, as a check is.
+        let mut lattice = self.lattice.lock().unwrap_or_else(PoisonError::into_inner);
         let clock = Instant::now();
-        let answer = ambiguity(
+        let answer = lattice.ambiguity(
             self.matcher.grid(),
             source,
             &reg.t_ref_src,
             &AmbiguityParams::default(),
         );
+        drop(lattice);
         *self.check_us.lock().unwrap_or_else(PoisonError::into_inner) +=
             clock.elapsed().as_secs_f64() * 1e6;
         Some(answer)

@@ -24,8 +24,8 @@
 //! The lattice is as coarse as the grid (a cell, 0.1 m by default): around a well-defined
 //! optimum it cannot resolve a covariance of millimetres, and its second moment there would be
 //! the lattice's, not the scene's. So the term is there only where a near-optimal pose lies
-//! beyond the result's own peak (more than `peak_radius_m` away): a slide; elsewhere it is zero,
-//! and the registration's covariance stands alone.
+//! beyond the result's own peak (more than `peak_radius_m` from the lattice pose nearest the
+//! result): a slide; elsewhere it is zero, and the registration's covariance stands alone.
 //!
 //! # Distinct poses
 //! Where the poses scoring at least `distinct_ratio` × the best fall apart into separate
@@ -43,7 +43,7 @@
 use nalgebra::{Isometry2, Matrix3, Point2, UnitComplex, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::grid::{range_weight, suffix_sums, LikelihoodGrid, CHUNK, FULL_SCALE};
+use super::grid::{range_weight, suffix_sums, LikelihoodGrid, Lookup, CHUNK, FULL_SCALE};
 use crate::Scan;
 
 /// The parameters of [`ambiguity`].
@@ -52,14 +52,14 @@ pub struct AmbiguityParams {
     /// Half-width of the square translation window around the result, metres (on the grid's
     /// cells).
     pub window_m: f64,
-    /// Rotations either side of the result's.
+    /// Rotations either side of the one nearest the result's.
     pub rotation_steps: usize,
     /// Their spacing, degrees.
     pub rotation_step_deg: f64,
     /// A pose scoring at least this fraction of the window's best is near-optimal, in (0, 1].
     pub near_ratio: f64,
-    /// The term is zero unless a near-optimal pose lies farther than this from the result,
-    /// metres.
+    /// The term is zero unless a near-optimal pose lies farther than this from the lattice pose
+    /// nearest the result (the window's centre), metres.
     pub peak_radius_m: f64,
     /// Poses scoring at least this fraction of the best form the groups of which two distinct
     /// ones make the pair ambiguous, in [`Self::near_ratio`], 1].
@@ -156,7 +156,8 @@ pub struct Ambiguity {
     pub term: Matrix3<f64>,
     /// Near-optimal poses of the lattice.
     pub near_poses: usize,
-    /// The farthest of them from the result, metres.
+    /// The farthest of them from the window's centre (the lattice pose nearest the result),
+    /// metres.
     pub extent_m: f64,
     /// The window's best pose.
     pub best: ScoredPose,
@@ -193,8 +194,93 @@ impl Lattice {
     }
 }
 
+/// The lattice pose nearest a result: its translation's cell (translation `res · cell`) and
+/// its rotation's step (rotation `step · rotation`).
+#[derive(Clone, Copy)]
+struct Centre {
+    cell: [i32; 2],
+    rotation: i32,
+}
+
+/// What is known of one sum: the sum itself (the top bit clear), or that it is at most the
+/// value less its top bit (set); unknown is at most the largest such value. A sum is below
+/// 2^63: a return adds at most 2^24 × 255 (`range_weight`, [`FULL_SCALE`]).
+#[derive(Clone, Copy)]
+struct Known(u64);
+
+impl Known {
+    const AT_MOST: u64 = 1 << 63;
+    const UNKNOWN: Self = Self(u64::MAX);
+
+    fn exact(sum: u64) -> Self {
+        Self(sum)
+    }
+
+    fn at_most(bound: u64) -> Self {
+        Self(bound | Self::AT_MOST)
+    }
+
+    /// The sum, when it is known.
+    fn sum(self) -> Option<u64> {
+        (self.0 & Self::AT_MOST == 0).then_some(self.0)
+    }
+
+    /// What a sum above `floor` is (`Some(None)`: not above it), when this says.
+    fn above(self, floor: u64) -> Option<Option<u64>> {
+        match self.sum() {
+            Some(s) => Some((s > floor).then_some(s)),
+            None => (self.0 & !Self::AT_MOST <= floor).then_some(None),
+        }
+    }
+}
+
+/// One rotation's lookups, every cell moved by `base`, and what is known of its sums at the
+/// offsets `base ± window`, per level `h` (row-major over the cells that are multiples of
+/// `2^h`: a level above 0 bounds the block of poses from its cell).
+struct RotationScores {
+    rotation: i32,
+    base: [i32; 2],
+    lookups: Vec<Lookup>,
+    headroom: Vec<u64>,
+    known: Vec<Vec<Known>>,
+}
+
+/// The source scan's sums on the lattice of one reference's likelihood grid, kept from one
+/// result to the next: the results of a pair's variants usually sit in one basin, and their
+/// lattices overlap. Each rotation's lookups are made once, and each pose's sum once (or its
+/// bound, where a sum was given up below a floor), each block's bound likewise: blocks lie on
+/// whole multiples of their side.
+///
+/// The lattice is the grid's own: translations on whole cells (`res · (i, j)`), rotations on
+/// whole steps (`step · k`), so a pose is the same pose for every result whose window holds it.
+/// A result's answer is a function of its own window's sums alone, and a sum is exact or
+/// known to lie below the floor asked: the answer does not depend on which results were
+/// assessed before, nor in which order (`shared_scores_answer_as_fresh_ones`).
+///
+/// For one grid and one source scan: [`Self::ambiguity`] starts afresh when the source's
+/// returns, the grid's shape or the rotation step differ from those it holds.
+#[derive(Default)]
+pub struct LatticeScores {
+    key: Option<ScoresKey>,
+    returns: Vec<(Point2<f64>, u32)>,
+    rotations: Vec<RotationScores>,
+    chunk_sums: Vec<u64>,
+}
+
+/// What a [`LatticeScores`] was made for, besides the returns.
+#[derive(Clone, Copy, PartialEq)]
+struct ScoresKey {
+    resolution_m: f64,
+    sigma_m: f64,
+    size: (usize, usize),
+    depth: u32,
+    window: i32,
+    step_rad: f64,
+}
+
 /// The ambiguity of `result` (a pose of `source` in the reference frame) on the reference's
-/// likelihood `grid`, with `params` (the module doc).
+/// likelihood `grid`, with `params` (the module doc): [`LatticeScores::ambiguity`] on scores of
+/// its own.
 ///
 /// `Err` (never a NaN) for too few returns, a result that leaves the map, or a flat score.
 pub fn ambiguity(
@@ -203,192 +289,421 @@ pub fn ambiguity(
     result: &Isometry2<f64>,
     params: &AmbiguityParams,
 ) -> Result<Ambiguity, AmbiguityProblem> {
-    let returns: Vec<(Point2<f64>, u32)> = source
-        .returns()
-        .iter()
-        .filter(|r| r.point.x.is_finite() && r.point.y.is_finite())
-        .map(|r| (r.point, range_weight(r)))
-        .collect();
-    let need = params.min_returns;
-    if returns.len() < need {
-        return Err(AmbiguityProblem::TooFewReturns {
-            got: returns.len(),
-            need,
-        });
-    }
-    let res = grid.resolution_m();
-    let (nx, ny) = grid.size();
-    let on_map = returns
-        .iter()
-        .filter(|(p, _)| {
-            let [i, j] = grid.cell_of(&(result * p));
-            (0..nx as i32).contains(&i) && (0..ny as i32).contains(&j)
-        })
-        .count();
-    if on_map < need {
-        return Err(AmbiguityProblem::OffTheMap { got: on_map, need });
-    }
-    // The grid is padded for offsets of its own window: the lattice stays inside it.
-    let lattice = Lattice {
-        w: ((params.window_m / res).round().max(0.0) as i32).min(grid.window_cells()),
-        k: params.rotation_steps as i32,
-    };
-    let step_rad = params.rotation_step_deg.to_radians();
-    let total: u64 = returns.iter().map(|&(_, w)| u64::from(w)).sum();
-    let full = total * u64::from(FULL_SCALE);
-    let sums = lattice_sums(
-        grid,
-        &returns,
-        result,
-        &lattice,
-        step_rad,
-        params.near_ratio,
-    );
-    let best_sum = sums.iter().copied().max().unwrap_or(0);
-    let best_index = sums.iter().position(|&s| s == best_sum).unwrap_or(0);
-    let near_floor = (params.near_ratio * best_sum as f64).ceil() as u64;
-    let near: Vec<usize> = (0..sums.len())
-        .filter(|&i| sums[i] > 0 && sums[i] >= near_floor)
-        .collect();
-    let near_fraction = near.len() as f64 / lattice.len() as f64;
-    let score = |sum: u64| sum as f64 / full as f64;
-    if best_sum == 0 || near_fraction > params.flat_fraction {
-        return Err(AmbiguityProblem::FlatScore {
-            best: score(best_sum),
-            near_fraction,
-        });
-    }
-    let offset_of = |i: usize| {
-        let [dx, dy, r] = lattice.offset(i);
-        Vector3::new(
-            f64::from(dx) * res,
-            f64::from(dy) * res,
-            f64::from(r) * step_rad,
-        )
-    };
-    let pose_of = |i: usize| {
-        let e = offset_of(i);
-        ScoredPose {
-            t_ref_src: Isometry2::from_parts(
-                (result.translation.vector + Vector2::new(e.x, e.y)).into(),
-                result.rotation * UnitComplex::new(e.z),
-            ),
-            score: score(sums[i]),
-        }
-    };
-    let extent_m = near
-        .iter()
-        .map(|&i| offset_of(i).xy().norm())
-        .fold(0.0, f64::max);
-    let term = if extent_m > params.peak_radius_m {
-        let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
-        for &i in &near {
-            let e = offset_of(i);
-            let p = sums[i] as f64;
-            moment += e * e.transpose() * p;
-            weight += p;
-        }
-        // Each pose stands for its cell of the lattice, the pose anywhere in it: the second
-        // moment of a uniform spread over a cell about its centre, a twelfth of its side squared
-        // on each axis.
-        let cell = Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0;
-        moment / weight + Matrix3::from_diagonal(&cell)
-    } else {
-        Matrix3::zeros()
-    };
-    let distinct_floor = (params.distinct_ratio * best_sum as f64).ceil() as u64;
-    let rival = rival_group(&lattice, &sums, distinct_floor.max(1), best_index)
-        .map(pose_of)
-        .filter(|rival| {
-            let apart = rival.t_ref_src.translation.vector
-                - pose_of(best_index).t_ref_src.translation.vector;
-            apart.norm() > params.separation_m
-        });
-    Ok(Ambiguity {
-        term,
-        near_poses: near.len(),
-        extent_m,
-        best: pose_of(best_index),
-        rival,
-    })
+    LatticeScores::default().ambiguity(grid, source, result, params)
 }
 
-/// The weighted sums (quantised likelihood times range weight) of every pose of `lattice`
-/// around `result`; a pose that cannot reach `ratio` × the best found so far is left at 0, its
-/// block of offsets skipped when the max-pooled level bounding it says so (Hess et al. 2016),
-/// each sum given up as soon as its returns left cannot lift it there (the global search's
-/// lookups and sums, `LikelihoodGrid::sum_above`).
-fn lattice_sums(
-    grid: &LikelihoodGrid,
-    returns: &[(Point2<f64>, u32)],
-    result: &Isometry2<f64>,
-    lattice: &Lattice,
-    step_rad: f64,
-    ratio: f64,
-) -> Vec<u64> {
-    let level = grid.depth().min(2);
-    let block = 1i32 << level;
-    let w = lattice.w;
-    let mut sums = vec![0u64; lattice.len()];
-    let (mut lookups, mut headroom, mut chunk_sums) = (Vec::new(), Vec::new(), Vec::new());
-    let mut read = 0;
-    let mut best = 0u64;
-    // Above this a sum may be near-optimal: below `ratio` × the best so far, it is not.
-    let floor = |best: u64| ((ratio * best as f64).ceil() as u64).saturating_sub(1);
-    // The result's rotation first, its centre first: the floor starts at the result's score.
-    let rotations = std::iter::once(0).chain((-lattice.k..=lattice.k).filter(|&r| r != 0));
-    for r in rotations {
-        let pose = Isometry2::from_parts(
-            result.translation,
-            result.rotation * UnitComplex::new(f64::from(r) * step_rad),
-        );
-        lookups.clear();
-        grid.lookups(returns.iter().map(|&(p, w)| (pose * p, w)), &mut lookups);
-        headroom.clear();
-        headroom.extend(lookups.chunks(CHUNK).map(|chunk| {
-            chunk
-                .iter()
-                .map(|l| u64::from(l.weight) * u64::from(FULL_SCALE))
-                .sum::<u64>()
-        }));
-        suffix_sums(&mut headroom);
-        chunk_sums.resize(headroom.len(), 0);
-        let mut sum_above = |level: u32, offset: [i32; 2], floor: u64| {
-            let shift = grid.shift(offset);
-            grid.sum_above(
-                level,
-                &lookups,
-                &headroom,
-                shift,
-                floor,
-                &mut read,
-                &mut chunk_sums,
+impl LatticeScores {
+    /// The ambiguity of `result` (a pose of `source` in the reference frame) on the
+    /// reference's likelihood `grid`, with `params` (the module doc), from the sums these
+    /// scores hold and those it adds. The same answer as [`ambiguity`]'s.
+    ///
+    /// `Err` (never a NaN) for too few returns, a result that leaves the map, or a flat score.
+    pub fn ambiguity(
+        &mut self,
+        grid: &LikelihoodGrid,
+        source: &Scan,
+        result: &Isometry2<f64>,
+        params: &AmbiguityParams,
+    ) -> Result<Ambiguity, AmbiguityProblem> {
+        let returns: Vec<(Point2<f64>, u32)> = source
+            .returns()
+            .iter()
+            .filter(|r| r.point.x.is_finite() && r.point.y.is_finite())
+            .map(|r| (r.point, range_weight(r)))
+            .collect();
+        let need = params.min_returns;
+        if returns.len() < need {
+            return Err(AmbiguityProblem::TooFewReturns {
+                got: returns.len(),
+                need,
+            });
+        }
+        let res = grid.resolution_m();
+        let (nx, ny) = grid.size();
+        let on_map = returns
+            .iter()
+            .filter(|(p, _)| {
+                let [i, j] = grid.cell_of(&(result * p));
+                (0..nx as i32).contains(&i) && (0..ny as i32).contains(&j)
+            })
+            .count();
+        if on_map < need {
+            return Err(AmbiguityProblem::OffTheMap { got: on_map, need });
+        }
+        let step_rad = params.rotation_step_deg.to_radians();
+        let key = ScoresKey {
+            resolution_m: res,
+            sigma_m: grid.sigma_m(),
+            size: (nx, ny),
+            depth: grid.depth(),
+            window: grid.window_cells(),
+            step_rad,
+        };
+        if self.key != Some(key) || self.returns != returns {
+            *self = Self {
+                key: Some(key),
+                returns,
+                ..Self::default()
+            };
+        }
+        // The grid is padded for offsets of its own window: the lattice stays inside it, and
+        // so do the blocks that bound it (`LatticeScores::lattice_sums`).
+        let lattice = Lattice {
+            w: ((params.window_m / res).round().max(0.0) as i32)
+                .min(grid.window_cells() + 1 - block_side(grid))
+                .max(0),
+            k: params.rotation_steps as i32,
+        };
+        // Far off the map a result has no returns on it (above): the clamp only keeps the
+        // arithmetic in range.
+        let nearest = |f: f64| f.round().clamp(-FAR_OFFSET, FAR_OFFSET) as i32;
+        let theta = result.rotation.angle();
+        let centre = Centre {
+            cell: [
+                nearest(result.translation.x / res),
+                nearest(result.translation.y / res),
+            ],
+            rotation: if step_rad > 0.0 {
+                nearest(theta / step_rad)
+            } else {
+                0
+            },
+        };
+        let total: u64 = self.returns.iter().map(|&(_, w)| u64::from(w)).sum();
+        let full = total * u64::from(FULL_SCALE);
+        let sums = self.lattice_sums(grid, &lattice, centre, step_rad, params.near_ratio);
+        let best_sum = sums.iter().copied().max().unwrap_or(0);
+        let best_index = sums.iter().position(|&s| s == best_sum).unwrap_or(0);
+        let near: Vec<usize> = (0..sums.len()).filter(|&i| sums[i] > 0).collect();
+        let near_fraction = near.len() as f64 / lattice.len() as f64;
+        let score = |sum: u64| sum as f64 / full as f64;
+        if best_sum == 0 || near_fraction > params.flat_fraction {
+            return Err(AmbiguityProblem::FlatScore {
+                best: score(best_sum),
+                near_fraction,
+            });
+        }
+        // A lattice pose: its cell and step, and its offset from the result.
+        let pose_of = |i: usize| {
+            let [dx, dy, r] = lattice.offset(i);
+            let (cx, cy) = (centre.cell[0] + dx, centre.cell[1] + dy);
+            let k = centre.rotation + r;
+            Isometry2::new(
+                Vector2::new(f64::from(cx) * res, f64::from(cy) * res),
+                f64::from(k) * step_rad,
             )
         };
-        if r == 0 {
-            let centre = sum_above(0, [0, 0], 0).unwrap_or(0);
-            sums[lattice.index([0, 0, 0])] = centre;
-            best = best.max(centre);
-        }
-        for oy in (-w..=w).step_by(block as usize) {
-            for ox in (-w..=w).step_by(block as usize) {
-                if sum_above(level, [ox, oy], floor(best)).is_none() {
-                    continue;
-                }
-                for dy in oy..(oy + block).min(w + 1) {
-                    for dx in ox..(ox + block).min(w + 1) {
-                        if let Some(s) = sum_above(0, [dx, dy], floor(best)) {
-                            sums[lattice.index([dx, dy, r])] = s;
-                            best = best.max(s);
-                        }
+        let offset_of = |i: usize| {
+            let [dx, dy, r] = lattice.offset(i);
+            let (cx, cy) = (centre.cell[0] + dx, centre.cell[1] + dy);
+            Vector3::new(
+                f64::from(cx) * res - result.translation.x,
+                f64::from(cy) * res - result.translation.y,
+                f64::from(centre.rotation + r) * step_rad - theta,
+            )
+        };
+        let scored = |i: usize| ScoredPose {
+            t_ref_src: pose_of(i),
+            score: score(sums[i]),
+        };
+        // How far the near-optimal poses reach from the result's own cell, in whole cells.
+        let extent_m = near
+            .iter()
+            .map(|&i| {
+                let [dx, dy, _] = lattice.offset(i);
+                f64::from(dx).hypot(f64::from(dy)) * res
+            })
+            .fold(0.0, f64::max);
+        let term = if extent_m > params.peak_radius_m {
+            let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
+            for &i in &near {
+                let e = offset_of(i);
+                let p = sums[i] as f64;
+                moment += e * e.transpose() * p;
+                weight += p;
+            }
+            // Each pose stands for its cell of the lattice, the pose anywhere in it: the
+            // second moment of a uniform spread over a cell about its centre, a twelfth of
+            // its side squared on each axis.
+            let cell = Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0;
+            moment / weight + Matrix3::from_diagonal(&cell)
+        } else {
+            Matrix3::zeros()
+        };
+        let distinct_floor = (params.distinct_ratio * best_sum as f64).ceil() as u64;
+        let rival = rival_group(&lattice, &sums, distinct_floor.max(1), best_index)
+            .map(scored)
+            .filter(|rival| {
+                let apart =
+                    rival.t_ref_src.translation.vector - pose_of(best_index).translation.vector;
+                apart.norm() > params.separation_m
+            });
+        Ok(Ambiguity {
+            term,
+            near_poses: near.len(),
+            extent_m,
+            best: scored(best_index),
+            rival,
+        })
+    }
+
+    /// The weighted sums (quantised likelihood times range weight) of the poses of `lattice`
+    /// around `centre` that score at least `ratio` × the best of them; 0 for the others. A
+    /// pose that cannot reach `ratio` × the best found so far is not summed: its block of
+    /// offsets is skipped when the max-pooled level bounding it says so (Hess et al. 2016),
+    /// level by level down to the poses (coarse to fine), and each sum is given up as soon as
+    /// its returns left cannot lift it there (the global search's lookups and sums,
+    /// `LikelihoodGrid::sum_above`). What these scores already know starts the best.
+    fn lattice_sums(
+        &mut self,
+        grid: &LikelihoodGrid,
+        lattice: &Lattice,
+        centre: Centre,
+        step_rad: f64,
+        ratio: f64,
+    ) -> Vec<u64> {
+        let slots: Vec<usize> = (-lattice.k..=lattice.k)
+            .map(|r| self.rotation(grid, centre.rotation + r, centre.cell, lattice.w, step_rad))
+            .collect();
+        let w = lattice.w;
+        let window = grid.window_cells();
+        let [cx, cy] = centre.cell;
+        let mut sums = vec![0u64; lattice.len()];
+        let mut best = 0u64;
+        let side = lattice.side();
+        for (r, &slot) in (-lattice.k..).zip(&slots) {
+            let rotation = &self.rotations[slot];
+            for dy in -w..=w {
+                // A row of the window: contiguous in both.
+                let from = rotation.at(0, [cx - w, cy + dy], window);
+                let to = lattice.index([-w, dy, r]);
+                let known = &rotation.known[0][from..from + side];
+                for (sum, k) in sums[to..to + side].iter_mut().zip(known) {
+                    if let Some(s) = k.sum() {
+                        *sum = s;
+                        best = best.max(s);
                     }
                 }
             }
         }
+        let level = grid.depth().min(TOP_LEVEL);
+        let block = block_side(grid);
+        // The blocks on whole multiples of their side that cover the window.
+        let first = |c: i32| (c - w).div_euclid(block) * block;
+        // The result's rotation first, its centre first: the floor starts at least at the
+        // result's score.
+        let order = std::iter::once(0).chain((-lattice.k..=lattice.k).filter(|&r| r != 0));
+        for r in order {
+            let slot = slots[(r + lattice.k) as usize];
+            let mut pass = Pass {
+                rotation: &mut self.rotations[slot],
+                grid,
+                chunk_sums: &mut self.chunk_sums,
+                sums: &mut sums,
+                lattice,
+                centre: [cx, cy],
+                r,
+                ratio,
+                best: &mut best,
+            };
+            pass.visit(0, [cx, cy]);
+            for y in (first(cy)..=cy + w).step_by(block as usize) {
+                for x in (first(cx)..=cx + w).step_by(block as usize) {
+                    pass.visit(level, [x, y]);
+                }
+            }
+        }
+        // Poses summed before the best rose to its final height may lie below `ratio` × it.
+        let floor = (ratio * best as f64).ceil() as u64;
+        for s in &mut sums {
+            if *s < floor {
+                *s = 0;
+            }
+        }
+        sums
     }
-    // Poses scored before the floor rose to its final height may be below it: the caller
-    // keeps only those at `ratio` × the best or above.
-    sums
+
+    /// The slot of rotation `rotation`'s scores whose offsets reach `cell ± w` and the blocks
+    /// that cover it, made when there is none.
+    fn rotation(
+        &mut self,
+        grid: &LikelihoodGrid,
+        rotation: i32,
+        cell: [i32; 2],
+        w: i32,
+        step_rad: f64,
+    ) -> usize {
+        let window = grid.window_cells();
+        let below = block_side(grid) - 1;
+        let reaches = |s: &RotationScores| {
+            s.rotation == rotation
+                && (0..2).all(|a| {
+                    cell[a] - w - below >= s.base[a] - window && cell[a] + w <= s.base[a] + window
+                })
+        };
+        if let Some(slot) = self.rotations.iter().position(reaches) {
+            return slot;
+        }
+        let turn = UnitComplex::new(f64::from(rotation) * step_rad);
+        let (nx, ny) = grid.size();
+        let top = (1i64 << grid.depth()) - 1;
+        let (low, wide) = (-top - i64::from(window), i64::from(window));
+        let mut lookups = Vec::with_capacity(self.returns.len());
+        for &(p, weight) in &self.returns {
+            let [i, j] = grid.cell_of(&(turn * p));
+            let moved = [
+                i64::from(i) + i64::from(cell[0]),
+                i64::from(j) + i64::from(cell[1]),
+            ];
+            // As `LikelihoodGrid::lookups` keeps them: a cell no offset of the window brings
+            // onto a cell of any level that may be non-zero adds 0 to every sum.
+            if (low..nx as i64 + wide).contains(&moved[0])
+                && (low..ny as i64 + wide).contains(&moved[1])
+            {
+                lookups.push(grid.lookup_at([moved[0] as i32, moved[1] as i32], weight));
+            }
+        }
+        let mut headroom: Vec<u64> = lookups
+            .chunks(CHUNK)
+            .map(|chunk| {
+                chunk
+                    .iter()
+                    .map(|l| u64::from(l.weight) * u64::from(FULL_SCALE))
+                    .sum()
+            })
+            .collect();
+        suffix_sums(&mut headroom);
+        if self.chunk_sums.len() < headroom.len() {
+            self.chunk_sums.resize(headroom.len(), 0);
+        }
+        let known = (0..=grid.depth().min(TOP_LEVEL))
+            .map(|level| {
+                let side = level_side(window, level) as usize;
+                vec![Known::UNKNOWN; side * side]
+            })
+            .collect();
+        self.rotations.push(RotationScores {
+            rotation,
+            base: cell,
+            lookups,
+            headroom,
+            known,
+        });
+        self.rotations.len() - 1
+    }
+}
+
+/// Cell offsets are kept within ±this (far outside any grid, far from `i32` overflow).
+const FAR_OFFSET: f64 = (1 << 28) as f64;
+
+/// The highest level whose blocks bound the lattice's poses (blocks of 4 × 4).
+const TOP_LEVEL: u32 = 2;
+
+/// The side of the top blocks, cells.
+fn block_side(grid: &LikelihoodGrid) -> i32 {
+    1 << grid.depth().min(TOP_LEVEL)
+}
+
+/// Cells of level `level` that are multiples of its block side, along a side of `base ±
+/// window`: at most this.
+fn level_side(window: i32, level: u32) -> i32 {
+    ((2 * window) >> level) + 2
+}
+
+impl RotationScores {
+    /// The index in `known[level]` of `cell` (a multiple of `2^level` above level 0).
+    fn at(&self, level: u32, [x, y]: [i32; 2], window: i32) -> usize {
+        // An arithmetic shift is the floor of a division by `2^level`.
+        let i = (x >> level) - ((self.base[0] - window) >> level);
+        let j = (y >> level) - ((self.base[1] - window) >> level);
+        (j * level_side(window, level) + i) as usize
+    }
+
+    /// The sum at level `level` of the lookups moved to `cell`, or `None` when it does not
+    /// exceed `floor` (`LikelihoodGrid::sum_above`): from what is known when that answers,
+    /// and what the sum says is kept.
+    fn sum_above(
+        &mut self,
+        grid: &LikelihoodGrid,
+        level: u32,
+        cell: [i32; 2],
+        floor: u64,
+        chunk_sums: &mut [u64],
+    ) -> Option<u64> {
+        let window = grid.window_cells();
+        let shift = grid.shift([cell[0] - self.base[0], cell[1] - self.base[1]]);
+        let mut read = 0;
+        let mut sum = |floor| {
+            grid.sum_above(
+                level,
+                &self.lookups,
+                &self.headroom,
+                shift,
+                floor,
+                &mut read,
+                chunk_sums,
+            )
+        };
+        let at = self.at(level, cell, window);
+        let known = &mut self.known[level as usize];
+        if let Some(answer) = known[at].above(floor) {
+            return answer;
+        }
+        let answer = sum(floor);
+        known[at] = match answer {
+            Some(s) => Known::exact(s),
+            None => Known::at_most(floor),
+        };
+        answer
+    }
+}
+
+/// One rotation's pass over the lattice: its sums, pruned by the levels above (see
+/// [`LatticeScores::lattice_sums`]).
+struct Pass<'a> {
+    rotation: &'a mut RotationScores,
+    grid: &'a LikelihoodGrid,
+    chunk_sums: &'a mut Vec<u64>,
+    sums: &'a mut Vec<u64>,
+    lattice: &'a Lattice,
+    centre: [i32; 2],
+    r: i32,
+    ratio: f64,
+    best: &'a mut u64,
+}
+
+impl Pass<'_> {
+    /// Above this a sum may be near-optimal: below `ratio` × the best so far, it is not.
+    fn floor(&self) -> u64 {
+        ((self.ratio * *self.best as f64).ceil() as u64).saturating_sub(1)
+    }
+
+    /// The block of `2^level` cells a side from `cell` (overlapping the window): its bound at
+    /// `level`, then its quarters' that overlap the window, down to its poses' sums.
+    fn visit(&mut self, level: u32, cell: [i32; 2]) {
+        let floor = self.floor();
+        let Some(s) =
+            self.rotation
+                .sum_above(self.grid, level, cell, floor, &mut self.chunk_sums[..])
+        else {
+            return;
+        };
+        if level == 0 {
+            let [dx, dy] = [cell[0] - self.centre[0], cell[1] - self.centre[1]];
+            self.sums[self.lattice.index([dx, dy, self.r])] = s;
+            *self.best = (*self.best).max(s);
+            return;
+        }
+        let half = 1i32 << (level - 1);
+        let w = self.lattice.w;
+        let overlaps = |q: i32, c: i32| q + half > c - w && q <= c + w;
+        for [qx, qy] in [[0, 0], [half, 0], [0, half], [half, half]] {
+            let quarter = [cell[0] + qx, cell[1] + qy];
+            if overlaps(quarter[0], self.centre[0]) && overlaps(quarter[1], self.centre[1]) {
+                self.visit(level - 1, quarter);
+            }
+        }
+    }
 }
 
 /// The best pose of the best group of poses scoring at least `floor` other than the group of
@@ -605,8 +920,10 @@ mod tests {
         );
     }
 
-    /// The pruned sums against every pose summed cell by cell: the same near-optimal poses
-    /// with the same sums, on scans with structure (a room, moved and turned) and without.
+    /// The pruned sums against every pose of the lattice summed cell by cell: the same
+    /// near-optimal poses with the same sums (and 0 elsewhere), on scans with structure (a
+    /// room, moved and turned) and without, from fresh scores and from scores that other
+    /// results filled.
     #[test]
     fn pruning_keeps_every_near_optimal_pose() {
         let walls = room();
@@ -623,35 +940,96 @@ mod tests {
                 .collect();
             // A result off the truth, so that the best is not at the centre.
             let result = truth * Isometry2::new(Vector2::new(0.35, -0.2), 0.01);
-            let pruned = lattice_sums(&grid, &returns, &result, &lattice, step_rad, 0.9);
+            let centre = Centre {
+                cell: [
+                    (result.translation.x / 0.1).round() as i32,
+                    (result.translation.y / 0.1).round() as i32,
+                ],
+                rotation: (result.rotation.angle() / step_rad).round() as i32,
+            };
             let brute: Vec<u64> = (0..lattice.len())
                 .map(|i| {
                     let [dx, dy, r] = lattice.offset(i);
-                    let pose = Isometry2::from_parts(
-                        result.translation,
-                        result.rotation * UnitComplex::new(f64::from(r) * step_rad),
-                    );
+                    let turn = UnitComplex::new(f64::from(centre.rotation + r) * step_rad);
+                    let [cx, cy] = centre.cell;
                     returns
                         .iter()
                         .map(|&(p, w)| {
-                            let [i, j] = grid.cell_of(&(pose * p));
-                            u64::from(grid.value(0, [i + dx, j + dy])) * u64::from(w)
+                            let [i, j] = grid.cell_of(&(turn * p));
+                            u64::from(grid.value(0, [i + cx + dx, j + cy + dy])) * u64::from(w)
                         })
                         .sum()
                 })
                 .collect();
             let best = *brute.iter().max().unwrap();
-            assert_eq!(*pruned.iter().max().unwrap(), best);
             let floor = (0.9 * best as f64).ceil() as u64;
-            let near = |sums: &[u64]| -> Vec<(usize, u64)> {
-                sums.iter()
-                    .copied()
-                    .enumerate()
-                    .filter(|&(_, s)| s >= floor)
-                    .collect()
+            let near: Vec<u64> = brute
+                .iter()
+                .map(|&s| if s >= floor { s } else { 0 })
+                .collect();
+            assert!(near.iter().any(|&s| s > 0));
+            let mut fresh = LatticeScores {
+                returns: returns.clone(),
+                ..LatticeScores::default()
             };
-            assert_eq!(near(&pruned), near(&brute), "{x} {y} {deg}");
-            assert!(!near(&brute).is_empty());
+            let pruned = fresh.lattice_sums(&grid, &lattice, centre, step_rad, 0.9);
+            assert_eq!(pruned, near, "{x} {y} {deg}");
+            // Scores filled around poses a few cells and a step away first.
+            let mut filled = LatticeScores {
+                returns,
+                ..LatticeScores::default()
+            };
+            for (d, r) in [([3, -2], 1), ([-4, 0], -1), ([0, 5], 0)] {
+                let other = Centre {
+                    cell: [centre.cell[0] + d[0], centre.cell[1] + d[1]],
+                    rotation: centre.rotation + r,
+                };
+                filled.lattice_sums(&grid, &lattice, other, step_rad, 0.9);
+            }
+            let pruned = filled.lattice_sums(&grid, &lattice, centre, step_rad, 0.9);
+            assert_eq!(pruned, near, "{x} {y} {deg}, filled");
+        }
+    }
+
+    /// Results of one pair assessed on shared scores, in either order, get the answers each
+    /// gets on scores of its own: along a corridor (wide windows of near-optimal poses) and
+    /// in a room.
+    #[test]
+    fn shared_scores_answer_as_fresh_ones() {
+        let params = AmbiguityParams::default();
+        for walls in [corridor(30.0, 1.5), room()] {
+            let grid = grid_of(&walls);
+            let truth = Isometry2::new(Vector2::new(0.4, 0.05), 0.03);
+            let source = seen_from(&walls, &truth);
+            let results: Vec<Isometry2<f64>> = [
+                (0.0, 0.0, 0.0),
+                (0.03, -0.02, 0.2),
+                (0.12, 0.0, -0.4),
+                (-0.6, 0.3, 1.1),
+            ]
+            .into_iter()
+            .map(|(x, y, deg): (f64, f64, f64)| {
+                truth * Isometry2::new(Vector2::new(x, y), deg.to_radians())
+            })
+            .collect();
+            let fresh: Vec<_> = results
+                .iter()
+                .map(|r| ambiguity(&grid, &source, r, &params))
+                .collect();
+            let mut shared = LatticeScores::default();
+            let forward: Vec<_> = results
+                .iter()
+                .map(|r| shared.ambiguity(&grid, &source, r, &params))
+                .collect();
+            assert_eq!(forward, fresh);
+            let mut shared = LatticeScores::default();
+            let mut backward: Vec<_> = results
+                .iter()
+                .rev()
+                .map(|r| shared.ambiguity(&grid, &source, r, &params))
+                .collect();
+            backward.reverse();
+            assert_eq!(backward, fresh);
         }
     }
 
