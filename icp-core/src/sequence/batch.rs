@@ -12,7 +12,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::band::Band;
 use super::factors::Matrix6;
-use super::system::{Estimates, Layout, Model, Sink};
+use super::system::{descend, Discard, Estimates, Layout, Model, Sink};
 use super::SequenceError;
 
 /// The upper triangle of H in compressed columns, its symbolic factorisation, and g.
@@ -122,18 +122,24 @@ pub(crate) fn linearise(
     sys: &mut SparseSystem,
 ) -> f64 {
     sys.clear();
-    let mut cost = model.add_twist0(est, layout, sys);
+    add_all(model, est, layout, sys)
+}
+
+/// Adds every factor of `model` at `est` into `sink`; returns the total cost.
+fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &mut S) -> f64 {
+    let mut cost = model.add_twist0(est, layout, sink);
     for k in 0..est.poses.len() - 1 {
-        cost += model.add_prior(est, layout, k, sys);
+        cost += model.add_prior(est, layout, k, sink);
     }
     for i in 0..model.regs.len() {
-        cost += model.add_reg(est, layout, i, sys);
+        cost += model.add_reg(est, layout, i, sink);
     }
     cost
 }
 
-/// Gauss–Newton from `est` until the largest step is below `tolerance` or after
-/// `max_iterations`; leaves `sys` linearised at the result and returns the cost there.
+/// Gauss–Newton with step control ([`descend`]) from `est` until the largest step is below
+/// `tolerance`, no step lowers the cost, or after `max_iterations`; leaves `sys` linearised
+/// at the result and returns the cost there.
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -142,15 +148,25 @@ pub(crate) fn solve(
     max_iterations: usize,
     tolerance: f64,
 ) -> Result<f64, SequenceError> {
+    let mut trial = est.clone();
     for _ in 0..max_iterations {
-        linearise(model, est, layout, sys);
+        let cost = linearise(model, est, layout, sys);
         let delta = sys.step(&sys.factor()?);
         if delta.iter().any(|d| !d.is_finite()) {
             return Err(SequenceError::Factorisation { what: "step" });
         }
-        layout.apply(model.geometry, est, &delta);
-        if delta.iter().all(|d| d.abs() <= tolerance) {
-            break;
+        let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
+        match descend(
+            model.geometry,
+            layout,
+            est,
+            &mut trial,
+            &delta,
+            cost,
+            cost_at,
+        ) {
+            Some(scale) if delta.iter().any(|d| (d * scale).abs() > tolerance) => {}
+            _ => break,
         }
     }
     Ok(linearise(model, est, layout, sys))

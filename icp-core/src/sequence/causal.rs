@@ -6,7 +6,7 @@
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Vector3};
 
 use super::factors::{self, Matrix6};
-use super::system::{Estimates, Layout, Model, Sink};
+use super::system::{descend, Discard, Estimates, Layout, Model, Sink};
 use super::{ScanEstimate, SequenceError, SmootherOptions, StepEstimate};
 
 /// H and g of a window, dense.
@@ -51,8 +51,15 @@ struct MarginalPrior {
 }
 
 impl MarginalPrior {
-    /// Adds the prior, at `est`, into `sys` laid out as `window`.
-    fn add(&self, model: &Model<'_>, est: &Estimates, window: &Layout, sys: &mut DenseSystem) {
+    /// Adds the prior, at `est`, into `sink` laid out as `window`; returns its cost
+    /// `½ δᵀHδ + gᵀδ`.
+    fn add<S: Sink>(
+        &self,
+        model: &Model<'_>,
+        est: &Estimates,
+        window: &Layout,
+        sink: &mut S,
+    ) -> f64 {
         let len = self.at.poses.len();
         let mut map = vec![0; self.layout.dim() / 3];
         let mut delta = DVector::zeros(self.layout.dim());
@@ -73,15 +80,20 @@ impl MarginalPrior {
                 delta.fixed_rows_mut::<3>(3 * b).copy_from(&d);
             }
         }
-        let grad = &self.h * &delta + &self.g;
+        let h_delta = &self.h * &delta;
+        let grad = &h_delta + &self.g;
+        // Both layouts order the blocks by state, pose first: `map` keeps `bi ≤ bj`.
         for (bi, &wi) in map.iter().enumerate() {
-            sys.add_g(wi, &grad.fixed_rows::<3>(3 * bi).into_owned());
-            for (bj, &wj) in map.iter().enumerate() {
-                let m: Matrix3<f64> = self.h.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned();
-                let mut view = sys.h.fixed_view_mut::<3, 3>(3 * wi, 3 * wj);
-                view += m;
+            sink.add_g(wi, &grad.fixed_rows::<3>(3 * bi).into_owned());
+            for (bj, &wj) in map.iter().enumerate().skip(bi) {
+                sink.add_h(
+                    wi,
+                    wj,
+                    &self.h.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned(),
+                );
             }
         }
+        0.5 * delta.dot(&h_delta) + self.g.dot(&delta)
     }
 }
 
@@ -106,16 +118,17 @@ pub(crate) fn run(
     let mut steps: Vec<Option<StepEstimate>> = vec![None; n - 1];
     let mut first = 0;
     let mut marginal: Option<MarginalPrior> = None;
+    let mut trial = est.clone();
     for k in 1..n {
         predict(model, &mut est, k);
         let layout = Layout::new(first, k - first + 1);
         let sys = solve_window(
             model,
             &mut est,
+            &mut trial,
             &layout,
             marginal.as_ref(),
-            first,
-            k,
+            (first, k),
             options,
         )?;
         let cov = Cholesky::new(sys.h.clone())
@@ -172,7 +185,7 @@ fn predict(model: &Model<'_>, est: &mut Estimates, k: usize) {
     let xi = match reg {
         Some(r) => {
             let motion = super::inverse_params(model.geometry, &r.z);
-            factors::log_between(model.geometry, &Vector3::zeros(), &motion).0
+            super::log_from_origin(model.geometry, &motion)
         }
         None => est.twists[k - 1] * model.dt_s(k - 1),
     };
@@ -193,36 +206,53 @@ fn linearise(
     marginal: Option<&MarginalPrior>,
     first: usize,
     k: usize,
-) -> DenseSystem {
+) -> (DenseSystem, f64) {
     let mut sys = DenseSystem::zeros(layout.dim());
-    if first == 0 {
-        model.add_twist0(est, layout, &mut sys);
-    }
-    for j in first..k {
-        model.add_prior(est, layout, j, &mut sys);
-    }
-    for (i, r) in model.regs.iter().enumerate() {
-        if r.source >= first && r.reference <= k {
-            model.add_reg(est, layout, i, &mut sys);
-        }
-    }
-    if let Some(m) = marginal {
-        m.add(model, est, layout, &mut sys);
-    }
-    sys
+    let cost = add_window(model, est, layout, marginal, first, k, &mut sys);
+    (sys, cost)
 }
 
-fn solve_window(
+/// Adds the window's factors at `est` into `sink`; returns their cost.
+fn add_window<S: Sink>(
     model: &Model<'_>,
-    est: &mut Estimates,
+    est: &Estimates,
     layout: &Layout,
     marginal: Option<&MarginalPrior>,
     first: usize,
     k: usize,
+    sink: &mut S,
+) -> f64 {
+    let mut cost = 0.0;
+    if first == 0 {
+        cost += model.add_twist0(est, layout, sink);
+    }
+    for j in first..k {
+        cost += model.add_prior(est, layout, j, sink);
+    }
+    for (i, r) in model.regs.iter().enumerate() {
+        if r.source >= first && r.reference <= k {
+            cost += model.add_reg(est, layout, i, sink);
+        }
+    }
+    if let Some(m) = marginal {
+        cost += m.add(model, est, layout, sink);
+    }
+    cost
+}
+
+/// Gauss–Newton with step control ([`descend`]) over the window `first..=k`; `trial` is
+/// scratch states of the run's size.
+fn solve_window(
+    model: &Model<'_>,
+    est: &mut Estimates,
+    trial: &mut Estimates,
+    layout: &Layout,
+    marginal: Option<&MarginalPrior>,
+    (first, k): (usize, usize),
     options: &SmootherOptions,
 ) -> Result<DenseSystem, SequenceError> {
     for _ in 0..options.max_iterations {
-        let sys = linearise(model, est, layout, marginal, first, k);
+        let (sys, cost) = linearise(model, est, layout, marginal, first, k);
         let chol = Cholesky::new(sys.h.clone()).ok_or(SequenceError::Factorisation {
             what: "causal window",
         })?;
@@ -232,12 +262,23 @@ fn solve_window(
                 what: "causal step",
             });
         }
-        layout.apply(model.geometry, est, delta.as_slice());
-        if delta.iter().all(|d| d.abs() <= options.tolerance) {
-            break;
+        let cost_at =
+            |e: &Estimates| add_window(model, e, layout, marginal, first, k, &mut Discard);
+        let step = descend(
+            model.geometry,
+            layout,
+            est,
+            trial,
+            delta.as_slice(),
+            cost,
+            cost_at,
+        );
+        match step {
+            Some(scale) if delta.iter().any(|d| (d * scale).abs() > options.tolerance) => {}
+            _ => break,
         }
     }
-    Ok(linearise(model, est, layout, marginal, first, k))
+    Ok(linearise(model, est, layout, marginal, first, k).0)
 }
 
 /// Replaces the factors on scan `first` (its prior to `first + 1`, its registrations, and the

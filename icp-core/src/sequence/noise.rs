@@ -61,7 +61,7 @@ pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [
     let mut twist = vec![None; n];
     for r in regs.iter().filter(|r| r.reference == r.source + 1) {
         let motion = super::inverse_params(geometry, &r.z);
-        let (xi, _, _) = factors::log_between(geometry, &nalgebra::Vector3::zeros(), &motion);
+        let xi = super::log_from_origin(geometry, &motion);
         twist[r.source] = Some(xi / (times_s[r.reference] - times_s[r.source]));
     }
     let mut sum = [0.0; 3];

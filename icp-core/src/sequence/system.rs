@@ -84,21 +84,61 @@ impl Layout {
         [self.pose(state), self.twist(state)]
     }
 
-    /// Applies the step `delta` (in this layout) to `est`.
-    pub fn apply(&self, geometry: Geometry, est: &mut Estimates, delta: &[f64]) {
+    /// Applies the step `delta` (in this layout) times `scale` to `est`.
+    pub fn apply(&self, geometry: Geometry, est: &mut Estimates, delta: &[f64], scale: f64) {
+        let at = |b: usize| Vector3::new(delta[3 * b], delta[3 * b + 1], delta[3 * b + 2]) * scale;
         for (i, state) in (self.first..self.first + self.twist.len()).enumerate() {
             if let Some(b) = self.pose[i] {
-                let d = Vector3::new(delta[3 * b], delta[3 * b + 1], delta[3 * b + 2]);
+                let d = at(b);
                 let p = est.poses[state] + d;
                 est.poses[state] = match geometry {
                     Geometry::Se2 => Vector3::new(p.x, p.y, factors::wrap_rad(p.z)),
                     Geometry::Linear => p,
                 };
             }
-            let b = self.twist[i];
-            est.twists[state] += Vector3::new(delta[3 * b], delta[3 * b + 1], delta[3 * b + 2]);
+            est.twists[state] += at(self.twist[i]);
         }
     }
+
+    /// Copies the states of this layout from `from` into `to`.
+    pub fn copy(&self, from: &Estimates, to: &mut Estimates) {
+        let states = self.first..self.first + self.twist.len();
+        to.poses[states.clone()].copy_from_slice(&from.poses[states.clone()]);
+        to.twists[states.clone()].copy_from_slice(&from.twists[states]);
+    }
+}
+
+/// Halvings of a Gauss–Newton step at most before [`descend`] gives up (a step 4096 times
+/// shorter than Gauss–Newton's).
+const MAX_HALVINGS: usize = 12;
+
+/// Step control of the smoothers' Gauss–Newton: moves `est` by the step `delta` (laid out as
+/// `layout`), halved until the cost (`cost`, at the trial states in `trial`, a scratch copy
+/// of `est`) is no higher than `cost_now`; returns the scale taken, or `None` (and `est`
+/// unchanged) when no step down to [`MAX_HALVINGS`] halvings lowers it. Without it a full
+/// step from a poor start overshot on the aces log's fast turns, and after the log's 18 s
+/// pause (where the prior barely ties the scans) it diverged until the causal window's
+/// system was no longer positive definite.
+pub(crate) fn descend(
+    geometry: Geometry,
+    layout: &Layout,
+    est: &mut Estimates,
+    trial: &mut Estimates,
+    delta: &[f64],
+    cost_now: f64,
+    cost: impl Fn(&Estimates) -> f64,
+) -> Option<f64> {
+    let mut scale = 1.0;
+    for _ in 0..=MAX_HALVINGS {
+        layout.copy(est, trial);
+        layout.apply(geometry, trial, delta, scale);
+        if cost(trial) <= cost_now {
+            layout.copy(trial, est);
+            return Some(scale);
+        }
+        scale *= 0.5;
+    }
+    None
 }
 
 /// Where a linearisation accumulates `H = Σ Jᵀ W J` and `g = Σ Jᵀ W r`, block by block.
@@ -107,6 +147,14 @@ pub(crate) trait Sink {
     fn add_h(&mut self, bi: usize, bj: usize, m: &Matrix3<f64>);
     /// Adds `v` to block `bi` of g.
     fn add_g(&mut self, bi: usize, v: &Vector3<f64>);
+}
+
+/// A sink that keeps nothing: the factors' cost alone.
+pub(crate) struct Discard;
+
+impl Sink for Discard {
+    fn add_h(&mut self, _: usize, _: usize, _: &Matrix3<f64>) {}
+    fn add_g(&mut self, _: usize, _: &Vector3<f64>) {}
 }
 
 /// Adds one factor (residual `r`, information `info`, Jacobian blocks against `blocks`).
@@ -215,5 +263,52 @@ impl Model<'_> {
         } else {
             self.huber_k * d - 0.5 * self.huber_k * self.huber_k
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn states(n: usize) -> Estimates {
+        Estimates {
+            poses: vec![Vector3::zeros(); n],
+            twists: vec![Vector3::zeros(); n],
+        }
+    }
+
+    #[test]
+    fn a_step_is_halved_until_the_cost_does_not_rise_and_refused_when_it_always_does() {
+        // One free twist (scan 0's pose fixes the frame): cost (u − 1)² along surge.
+        let layout = Layout::new(0, 1);
+        let cost = |e: &Estimates| (e.twists[0].x - 1.0).powi(2);
+        let (mut est, mut trial) = (states(1), states(1));
+        // From u = 0 (cost 1) a step to u = 6 overshoots (25), so does u = 3 (4); halved
+        // twice it lands on u = 1.5 (0.25).
+        let delta = [6.0, 0.0, 0.0];
+        let scale = descend(
+            Geometry::Se2,
+            &layout,
+            &mut est,
+            &mut trial,
+            &delta,
+            1.0,
+            cost,
+        );
+        assert_eq!(scale, Some(0.25));
+        assert_eq!(est.twists[0].x, 1.5);
+        // Away from the minimum every step raises the cost: nothing moves.
+        let away = [1.0, 0.0, 0.0];
+        let scale = descend(
+            Geometry::Se2,
+            &layout,
+            &mut est,
+            &mut trial,
+            &away,
+            0.25,
+            cost,
+        );
+        assert_eq!(scale, None);
+        assert_eq!(est.twists[0].x, 1.5);
     }
 }
