@@ -40,7 +40,7 @@ use crate::measure::stats::quantile_sorted;
 use crate::run::covariance::closed_form_inflation;
 use crate::run::covariance::CovarianceMode;
 use crate::run::extended;
-use crate::run::lags::LagRuns;
+use crate::run::lags::{LagPair, LagRuns};
 use crate::run::runner::{PairRun, Runs};
 use crate::run::setup::EvalSetup;
 use crate::run::status::PairStatus;
@@ -169,6 +169,22 @@ pub fn inconsistent(
             })
         })
         .collect()
+}
+
+/// Whether the loop of consecutive registrations that registration `run` across lag `p`
+/// spans contradicts it: every member registered with status ok ([`trusted`]), and their
+/// chain farther than the "wrong" thresholds (0.3 m or 3°) from it. The sequence smoother
+/// leaves such a registration out: one of the two is wrong, and the consecutive ones are
+/// judged on their own (their flags, the loops of [`inconsistent`], and the smoother's
+/// `contradicted` status). A loop with a member flagged or missing says nothing.
+pub fn loop_open(lag1: &[PairRun], p: &LagPair, run: &PairRun) -> bool {
+    let Some(direct) = registered(run).map(|r| r.t_ref_src) else {
+        return false;
+    };
+    let steps: Option<Vec<Isometry2<f64>>> = lag1
+        .get(p.first..p.first + p.lag)
+        .and_then(|members| members.iter().map(trusted).collect());
+    steps.is_some_and(|s| wrong(apart(&chain(&s), &direct)))
 }
 
 /// Every loop of one variant `name`: its lag-1 registrations `lag1` chained against each of
@@ -345,5 +361,39 @@ mod tests {
             &between(&seen, 0, 2),
         );
         assert!((d.0 - 0.5).abs() < 0.05, "{d:?}");
+    }
+
+    #[test]
+    fn a_registration_across_a_lag_is_contradicted_only_by_a_loop_of_ok_registrations() {
+        let truth: Vec<Isometry2<f64>> = (0..3)
+            .map(|k| pose(0.4 * k as f64, 0.05 * k as f64, 5.0 * k as f64))
+            .collect();
+        let ok = |a: usize, b: usize| PairRun::ok_for_test(between(&truth, a, b), None);
+        let mut lag1 = vec![ok(0, 1), ok(1, 2)];
+        let p = LagPair {
+            pair: datasets::ScanPair {
+                source: 0,
+                reference: 2,
+            },
+            lag: 2,
+            first: 0,
+        };
+        let mut slid = between(&truth, 0, 2);
+        slid.translation.vector.x += 0.5;
+        let slid = PairRun::ok_for_test(slid, None);
+        assert!(!loop_open(&lag1, &p, &ok(0, 2)));
+        assert!(loop_open(&lag1, &p, &slid));
+        // A direct registration that failed is not a number to leave out.
+        let failed = PairRun {
+            result: Err(icp_core::IcpError::NoEstimate {
+                why: "test".to_owned(),
+            }),
+            ..ok(0, 2)
+        };
+        assert!(!loop_open(&lag1, &p, &failed));
+        // A member flagged: the loop says nothing; a loop past the run's end neither.
+        lag1[1].status = PairStatus::Degenerate { cond_ratio: 1e-4 };
+        assert!(!loop_open(&lag1, &p, &slid));
+        assert!(!loop_open(&lag1[..1], &p, &slid));
     }
 }

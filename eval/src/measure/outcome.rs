@@ -8,7 +8,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::measure::record::PairRecord;
-use crate::run::status::StatusKind;
+use crate::run::status::{StatusKind, CHI2_3_AT_999};
 
 /// A registration within this translation error of the reference is a success, m.
 pub const SUCCESS_TRANS_M: f64 = 0.1;
@@ -21,7 +21,7 @@ pub const WRONG_ROT_DEG: f64 = 3.0;
 
 /// A wrong registration is covered by its covariance when the NEES of its pose error under
 /// it is at most this: χ²₃ at 99.9 %.
-pub const COVERED_NEES: f64 = 16.266_236_196_238_1;
+pub const COVERED_NEES: f64 = CHI2_3_AT_999;
 
 /// The pose errors of a registered row, where the reference is a rigid pose.
 fn errors(r: &PairRecord) -> Option<(f64, f64)> {

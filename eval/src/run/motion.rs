@@ -97,7 +97,6 @@ pub fn motion_terms(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use icp_core::{Registration, StopReason};
     use nalgebra::{Isometry2, Vector2};
 
     const DT_S: f64 = 0.2;
@@ -106,28 +105,7 @@ mod tests {
     /// An ok registration of a scanner moving at body velocity `v` over `DT_S`.
     fn moving(v: Vector3<f64>) -> PairRun {
         let motion = Isometry2::new(Vector2::new(v.x, v.y) * DT_S, v.z * DT_S);
-        PairRun {
-            result: Ok(Registration {
-                t_ref_src: motion.inverse(),
-                iterations: 1,
-                stop: StopReason::Converged,
-                n_pairs: 100,
-                n_unusable: 0,
-                weight_sum: 100.0,
-                mean_residual_m: 0.01,
-                conditioning: None,
-                overlap: 1.0,
-                covariance: None,
-                jackknife_covariance: None,
-            }),
-            status: PairStatus::Ok,
-            check: None,
-            ambiguity: None,
-            init: None,
-            attempts: 1,
-            time_us: None,
-            left_out: None,
-        }
+        PairRun::ok_for_test(motion.inverse(), None)
     }
 
     fn chain(n: usize) -> Vec<ScanPair> {

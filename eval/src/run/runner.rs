@@ -725,6 +725,39 @@ fn previous_of(ds: &Dataset, pair: ScanPair, run: &PairRun) -> Previous {
     }
 }
 
+/// A registration every test of the harness can start from.
+#[cfg(test)]
+impl PairRun {
+    /// An ok registration at `t_ref_src` with `covariance`, as a registrar returns one.
+    pub(crate) fn ok_for_test(
+        t_ref_src: nalgebra::Isometry2<f64>,
+        covariance: Option<icp_core::Covariance>,
+    ) -> Self {
+        Self {
+            result: Ok(Registration {
+                t_ref_src,
+                iterations: 1,
+                stop: icp_core::StopReason::Converged,
+                n_pairs: 100,
+                n_unusable: 0,
+                weight_sum: 100.0,
+                mean_residual_m: 0.01,
+                conditioning: None,
+                overlap: 1.0,
+                covariance,
+                jackknife_covariance: None,
+            }),
+            status: PairStatus::Ok,
+            check: None,
+            ambiguity: None,
+            init: None,
+            attempts: 1,
+            time_us: None,
+            left_out: None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use datasets::synthetic::{generate, Scenario};

@@ -9,8 +9,15 @@
 //! their registrations have none to weigh them by).
 //!
 //! A registration the run flagged (any status but ok, loops included) or without a bounded
-//! covariance is left out of the smoother. A step that no registration left spans rests on the
-//! prior alone: it is a failure of the estimator, with that reason. The causal estimator uses
+//! covariance is left out of the smoother, and so is one across a lag whose loop through ok
+//! consecutive registrations does not close (`measure::cycles::loop_open`: one of them is
+//! wrong, and the consecutive ones are judged on their own). Each registration is weighed by
+//! its covariance as the report takes it, with the ambiguity term in the extended modes. A
+//! step that no registration left spans rests on the prior alone: it is a failure of the
+//! estimator, with that reason. A fused step keeps its variant's flag on the pair, and one
+//! whose variant's registration was ok but lies outside that registration's covariance is
+//! flagged `contradicted` ([`PairStatus::Contradicted`]): smoothing never clears a flag, and
+//! never hides a disagreement it cannot resolve. The causal estimator uses
 //! the `Qc` the batch one estimated from the whole run (a vessel would carry it over from
 //! earlier data). Smoothing runs where the report is made (`pipeline::report`), so a
 //! sharded run smooths at the merge, on the same registrations as a single run.
@@ -23,17 +30,19 @@ use icp_core::sequence::{
 use icp_core::termination::StopReason;
 use icp_core::BearingSense;
 use icp_core::{Covariance, IcpError, Registration};
+use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::data;
+use crate::measure::cycles;
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended;
 use crate::run::lags::LagRuns;
 use crate::run::runner::{PairRun, Runs};
 use crate::run::sequence_setup::SequenceMode;
 use crate::run::setup::EvalSetup;
-use crate::run::status::PairStatus;
+use crate::run::status::{PairStatus, CHI2_3_AT_999};
 
 /// One row of `sequence.csv`: a scan's fused state as one smoothed estimator has it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -80,6 +89,10 @@ pub struct SequenceSummary {
     /// without a bounded covariance.
     pub registrations: usize,
     pub left_out: usize,
+    /// Of those left out, the registrations across lags whose loop through ok consecutive
+    /// registrations does not close (`measure::cycles::loop_open`).
+    #[serde(default)]
+    pub left_out_loop_open: usize,
     /// The prior's process noise `[surge m²/s³, sway m²/s³, yaw rad²/s³]`, estimated from the
     /// run (expectation–maximisation, the batch smoother's).
     pub qc: Option<[f64; 3]>,
@@ -125,14 +138,23 @@ pub fn smooth(
         .par_iter()
         .map(|&v| {
             let inflation = closed_form_inflation(&setup.variants[v].spec().metric);
-            let (regs, left_out) = registrations(setup, pairs, &scans, runs, lagged, v, inflation);
+            let cov_of = |run: &PairRun| covariance_of(setup, inflation, run);
+            let (regs, left_out) = registrations(pairs, &scans, runs, lagged, v, &cov_of);
             let run = Scans {
                 ds,
                 pairs,
                 scans: &scans,
                 times: &times,
             };
-            smooth_variant(&run, setup, &runs.per_variant[v], v, &regs, left_out)
+            smooth_variant(
+                &run,
+                setup,
+                &runs.per_variant[v],
+                v,
+                &regs,
+                left_out,
+                &cov_of,
+            )
         })
         .collect();
     let mut out = SequenceRuns {
@@ -164,7 +186,8 @@ fn smooth_variant(
     own: &[PairRun],
     v: usize,
     regs: &[SequenceRegistration],
-    left_out: usize,
+    left_out: LeftOut,
+    cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> Vec<Estimator> {
     let options = SmootherOptions::default();
     let batch = sequence::smooth(run.times, regs, Mode::Batch, &options);
@@ -187,7 +210,7 @@ fn smooth_variant(
                 ),
             };
             Estimator {
-                runs: pair_runs(run.pairs, run.scans, own, &out),
+                runs: pair_runs(run.pairs, run.scans, own, &out, cov_of),
                 records: match &out {
                     Ok(s) => records(run, &name, mode, s),
                     Err(_) => Vec::new(),
@@ -195,7 +218,8 @@ fn smooth_variant(
                 summary: SequenceSummary {
                     method: name,
                     registrations: regs.len(),
-                    left_out,
+                    left_out: left_out.flagged + left_out.loop_open,
+                    left_out_loop_open: left_out.loop_open,
                     qc: batch.as_ref().ok().map(|b| b.qc),
                     em_rounds: batch.as_ref().map_or(0, |b| b.em_iterations),
                     heading_from_reference: first_heading_deg(run).is_some(),
@@ -221,57 +245,86 @@ fn times_s(ds: &Dataset, scans: &[usize]) -> Vec<f64> {
     stamped.unwrap_or_else(|| scans.iter().map(|&k| k as f64 * ds.dt_s).collect())
 }
 
-/// Variant `v`'s registrations usable by the smoother (status ok, bounded covariance as the
-/// report takes it), in the run's scan numbering, and how many were left out.
+/// The covariance the smoother weighs `run`'s registration by: as the report takes it
+/// (`setup.covariance`, closed form times `inflation`), plus, in the extended modes, the
+/// ambiguity term (the spread of the poses the scene scores almost as well: a registration
+/// that may have slid along a corridor is weighed as such). `None` where not bounded.
+fn covariance_of(setup: &EvalSetup, inflation: f64, run: &PairRun) -> Option<Matrix3<f64>> {
+    let reg = run.result.as_ref().ok()?;
+    let Covariance::Bounded(cov) = extended::of_registration(reg, setup.covariance, inflation)?
+    else {
+        return None;
+    };
+    Some(match extended::ambiguity_term(run) {
+        Some(term) if setup.covariance.is_extended() => cov + term,
+        _ => cov,
+    })
+}
+
+/// The registrations a smoother left out: flagged (or without a bounded covariance), and
+/// across lags with their loop open.
+#[derive(Clone, Copy, Debug, Default)]
+struct LeftOut {
+    flagged: usize,
+    loop_open: usize,
+}
+
+/// Variant `v`'s registrations usable by the smoother (status ok, bounded covariance by
+/// `cov_of`, and across lags a loop through ok consecutive registrations that closes or says
+/// nothing: `cycles::loop_open`), in the run's scan numbering, and how many were left out.
 fn registrations(
-    setup: &EvalSetup,
     pairs: &[ScanPair],
     scans: &[usize],
     runs: &Runs,
     lagged: Option<&LagRuns>,
     v: usize,
-    inflation: f64,
-) -> (Vec<SequenceRegistration>, usize) {
+    cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
+) -> (Vec<SequenceRegistration>, LeftOut) {
     let local = |k: usize| scans.binary_search(&k).ok();
-    let consecutive = pairs.iter().zip(&runs.per_variant[v]);
-    let across = lagged
-        .into_iter()
-        .flat_map(|l| l.pairs.iter().map(|p| &p.pair).zip(&l.runs.per_variant[v]));
+    let lag1 = &runs.per_variant[v];
+    let consecutive = pairs.iter().zip(lag1).map(|(p, r)| (*p, None, r));
+    let across = lagged.into_iter().flat_map(|l| {
+        l.pairs
+            .iter()
+            .zip(&l.runs.per_variant[v])
+            .map(|(p, r)| (p.pair, Some(p), r))
+    });
     let mut regs = Vec::new();
-    let mut left_out = 0;
-    for (pair, run) in consecutive.chain(across) {
+    let mut left_out = LeftOut::default();
+    for (pair, lag, run) in consecutive.chain(across) {
         let usable = (|| {
             if run.status != PairStatus::Ok {
                 return None;
             }
-            let reg = run.result.as_ref().ok()?;
-            let Covariance::Bounded(cov) =
-                extended::of_registration(reg, setup.covariance, inflation)?
-            else {
-                return None;
-            };
             Some(SequenceRegistration {
                 source: local(pair.source)?,
                 reference: local(pair.reference)?,
-                t_ref_src: reg.t_ref_src,
-                cov,
+                t_ref_src: run.result.as_ref().ok()?.t_ref_src,
+                cov: cov_of(run)?,
             })
         })();
         match usable {
+            Some(_) if lag.is_some_and(|p| cycles::loop_open(lag1, p, run)) => {
+                left_out.loop_open += 1
+            }
             Some(r) => regs.push(r),
-            None => left_out += 1,
+            None => left_out.flagged += 1,
         }
     }
     (regs, left_out)
 }
 
 /// The estimator's run of each pair: the fused step where a registration spans it, else a
-/// failure saying why.
+/// failure saying why. The fused step keeps its variant's flag on the pair (a number the
+/// variant could not stand behind is not cleared by smoothing it), and where the variant's
+/// registration was ok but the fused step lies outside its covariance (`cov_of`), the step
+/// is flagged [`PairStatus::Contradicted`].
 fn pair_runs(
     pairs: &[ScanPair],
     scans: &[usize],
     own: &[PairRun],
     out: &Result<Smoothed, sequence::SequenceError>,
+    cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> Vec<PairRun> {
     pairs
         .iter()
@@ -290,10 +343,11 @@ fn pair_runs(
             };
             PairRun {
                 status: match &result {
-                    Ok(_) => PairStatus::Ok,
                     Err(error) => PairStatus::Failed {
                         error: error.clone(),
                     },
+                    Ok(_) if own.status.is_failure() => own.status.clone(),
+                    Ok(f) => contradiction(own, f, cov_of).unwrap_or(PairStatus::Ok),
                 },
                 result,
                 check: None,
@@ -305,6 +359,32 @@ fn pair_runs(
             }
         })
         .collect()
+}
+
+/// [`PairStatus::Contradicted`] when the variant's own registration of the pair (`own`)
+/// lies farther from the fused step than its covariance allows.
+fn contradiction(
+    own: &PairRun,
+    fused: &Registration,
+    cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
+) -> Option<PairStatus> {
+    let reg = own.result.as_ref().ok()?;
+    let info = cov_of(own)?.try_inverse()?;
+    let (a, b) = (reg.t_ref_src, fused.t_ref_src);
+    let d = Vector3::new(
+        a.translation.x - b.translation.x,
+        a.translation.y - b.translation.y,
+        b.rotation.angle_to(&a.rotation),
+    );
+    let nees = d.dot(&(info * d));
+    (nees > CHI2_3_AT_999).then(|| {
+        let (apart_m, apart_deg) = cycles::apart(&a, &b);
+        PairStatus::Contradicted {
+            apart_m,
+            apart_deg,
+            nees,
+        }
+    })
 }
 
 /// The fused step as a registration; what describes the scans' agreement (pairs, residual,
@@ -397,4 +477,67 @@ fn records(run: &Scans<'_>, name: &str, mode: SequenceMode, s: &Smoothed) -> Vec
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use icp_core::sequence::StepEstimate;
+    use nalgebra::{Isometry2, Vector2};
+
+    use super::*;
+
+    #[test]
+    fn a_fused_step_keeps_its_variants_flag_and_is_flagged_where_its_registration_disagrees() {
+        let step = Isometry2::new(Vector2::new(1.0, 0.1), 0.05);
+        let pairs: Vec<ScanPair> = (0..5)
+            .map(|k| ScanPair {
+                source: k,
+                reference: k + 1,
+            })
+            .collect();
+        let scans: Vec<usize> = (0..6).collect();
+        let shifted = |dx: f64| {
+            let mut t = step;
+            t.translation.vector.x += dx;
+            PairRun::ok_for_test(t, None)
+        };
+        let mut degenerate = shifted(0.0);
+        degenerate.status = PairStatus::Degenerate { cond_ratio: 1e-4 };
+        // Ok and 2σ off; flagged; ok and 50σ off; ok; no registration left spans the last.
+        let own = vec![
+            shifted(0.02),
+            degenerate,
+            shifted(0.5),
+            shifted(0.0),
+            shifted(0.0),
+        ];
+        let smoothed = Smoothed {
+            scans: Vec::new(),
+            steps: (0..5)
+                .map(|k| StepEstimate {
+                    t_ref_src: step,
+                    cov: Matrix3::identity() * 1e-6,
+                    supported: k < 4,
+                })
+                .collect(),
+            qc: [1.0; 3],
+            em_iterations: 0,
+        };
+        let cov_of = |_: &PairRun| Some(Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-6)));
+        let runs = pair_runs(&pairs, &scans, &own, &Ok(smoothed), &cov_of);
+        let kinds: Vec<_> = runs.iter().map(|r| r.status.kind()).collect();
+        use crate::run::status::StatusKind as K;
+        assert_eq!(
+            kinds,
+            [K::Ok, K::Degenerate, K::Contradicted, K::Ok, K::Failed]
+        );
+        let PairStatus::Contradicted { apart_m, nees, .. } = runs[2].status else {
+            unreachable!()
+        };
+        assert!((apart_m - 0.5).abs() < 1e-12 && (nees - 2500.0).abs() < 1e-6);
+        // Every registered step carries the fused motion, flagged or not.
+        for r in &runs[..4] {
+            assert_eq!(r.result.as_ref().unwrap().t_ref_src, step);
+        }
+    }
 }

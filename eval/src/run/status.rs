@@ -14,6 +14,10 @@ use icp_core::{IcpError, Registration};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
 
+/// χ²₃'s 99.9 % point: a 3-vector whose NEES exceeds it is outside what its covariance
+/// allows (a one-in-a-thousand event for an honest one).
+pub const CHI2_3_AT_999: f64 = 16.266_236_196_238_1;
+
 /// The verdict on one registration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum PairStatus {
@@ -88,6 +92,19 @@ pub enum PairStatus {
         /// …and of it onto the scan after.
         after: String,
     },
+    /// A step of a sequence estimator (`--sequence`, `run::sequence`) whose own registration
+    /// was ok, but the fused motion lies outside what its covariance allows: its NEES against
+    /// the fused motion, under the registration's covariance as the smoother weighed it,
+    /// exceeds [`CHI2_3_AT_999`]. The registrations across lags and the motion prior say
+    /// otherwise, so one of them is wrong and the fused number cannot be stood behind.
+    Contradicted {
+        /// How far the registration lies from the fused motion, m…
+        apart_m: f64,
+        /// …and degrees.
+        apart_deg: f64,
+        /// Its NEES against the fused motion.
+        nees: f64,
+    },
     /// No registration: the method refused the input or broke down.
     Failed {
         /// The error, as the method said it.
@@ -115,6 +132,8 @@ pub enum StatusKind {
     Dynamic,
     /// See [`PairStatus::Isolated`].
     Isolated,
+    /// See [`PairStatus::Contradicted`].
+    Contradicted,
     /// See [`PairStatus::Failed`].
     Failed,
 }
@@ -158,6 +177,7 @@ impl PairStatus {
             Self::Inconsistent { .. } => StatusKind::Inconsistent,
             Self::Dynamic { .. } => StatusKind::Dynamic,
             Self::Isolated { .. } => StatusKind::Isolated,
+            Self::Contradicted { .. } => StatusKind::Contradicted,
             Self::Failed { .. } => StatusKind::Failed,
         }
     }
@@ -244,6 +264,14 @@ impl fmt::Display for PairStatus {
                 "scan {scan} fits neither neighbour by the detector's placing registrations ({} → {scan}: {before}; {scan} → {}: {after}): what moves in it cannot be judged",
                 scan.saturating_sub(1),
                 scan + 1
+            ),
+            Self::Contradicted {
+                apart_m,
+                apart_deg,
+                nees,
+            } => write!(
+                f,
+                "the fused motion lies {apart_m:.2} m and {apart_deg:.1}° from its registration, NEES {nees:.1} > {CHI2_3_AT_999:.2} under the registration's covariance: the registrations across lags and the motion prior say otherwise"
             ),
             Self::Failed { error } => write!(f, "{error}"),
         }
