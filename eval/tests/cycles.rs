@@ -1,16 +1,17 @@
 //! Loops across lags (`--lags`) on the synthetic harbour: consistent registrations close their
-//! loops and are not flagged, a corrupted middle one is, and bad lags are typed errors.
+//! loops and are not flagged, a corrupted middle one is (but not by a lag-2 registration whose
+//! scans fit twice), and bad lags are typed errors.
 
 use datasets::synthetic::{generate, Scenario};
 use datasets::Dataset;
 use eval::measure::cycles;
 use eval::run::init::InitChain;
-use eval::run::lags;
-use eval::run::runner::{run_all, Methods, RunPlan};
+use eval::run::lags::{self, LagRuns};
+use eval::run::runner::{run_all, Methods, PairSearch, RunPlan, Runs};
 use eval::run::setup::{EvalSetup, OffsetChoice, ReferenceChecks};
 use eval::run::status::{PairStatus, StatusKind};
 use eval::{evaluate, EvalError};
-use icp_core::global::GlobalParams;
+use icp_core::global::{GlobalGuess, GlobalParams};
 use icp_core::variants::builtin;
 use indicatif::ProgressBar;
 
@@ -72,9 +73,8 @@ fn consistent_registrations_close_their_loops_and_are_not_flagged() {
     );
 }
 
-#[test]
-fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
-    let ds = dataset();
+/// HD_ICP's registrations of `ds`'s consecutive pairs and across lag 2, from the identity.
+fn registered(ds: &Dataset) -> (Runs, LagRuns) {
     let (pairs, _) = ds.consecutive_pairs();
     let registrars: Vec<Box<dyn icp_core::Registrar>> =
         vec![Box::new(builtin("HD_ICP").unwrap().build().unwrap())];
@@ -87,15 +87,35 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
     };
     let methods = Methods::registrars(&registrars);
     let progress = ProgressBar::hidden();
-    let mut runs = run_all(&ds, &pairs, methods, &plan, &progress);
+    let runs = run_all(ds, &pairs, methods, &plan, &progress);
     let lag_pairs = lags::lag_pairs(&pairs, 2).unwrap();
-    let lagged = lags::run(&ds, lag_pairs, 2, methods, &plan, &progress).unwrap();
-    let clean = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
-    assert!(clean.iter().all(Option::is_none), "{clean:?}");
-    // Pair 6 in a wrong minimum: half a metre along and 2° off.
+    let lagged = lags::run(ds, lag_pairs, 2, methods, &plan, &progress).unwrap();
+    (runs, lagged)
+}
+
+/// Pair 6 of `runs` moved into a wrong minimum: half a metre along and 2° off.
+fn corrupt_pair_6(runs: &mut Runs) {
     let reg = runs.per_variant[0][6].result.as_mut().unwrap();
     reg.t_ref_src.translation.vector.x += 0.5;
     reg.t_ref_src.rotation *= nalgebra::UnitComplex::new(2f64.to_radians());
+}
+
+/// The position in `lagged` of the registration across lag 2 from pair `first`.
+fn across(lagged: &LagRuns, first: usize) -> usize {
+    lagged
+        .pairs
+        .iter()
+        .position(|p| p.lag == 2 && p.first == first)
+        .unwrap()
+}
+
+#[test]
+fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
+    let ds = dataset();
+    let (mut runs, lagged) = registered(&ds);
+    let clean = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
+    assert!(clean.iter().all(Option::is_none), "{clean:?}");
+    corrupt_pair_6(&mut runs);
     let flags = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged.runs.per_variant[0]);
     let flagged: Vec<usize> = (0..flags.len()).filter(|&i| flags[i].is_some()).collect();
     assert_eq!(flagged, vec![6], "{flags:?}");
@@ -122,13 +142,8 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
         panic!("{flags:?}")
     };
     assert_eq!(*alternatives, 1, "{flags:?}");
-    let across_5 = lagged
-        .pairs
-        .iter()
-        .position(|p| p.lag == 2 && p.first == 5)
-        .unwrap();
     let mut lagged_runs = lagged.runs.per_variant[0].clone();
-    lagged_runs[across_5].status = degenerate;
+    lagged_runs[across(&lagged, 5)].status = degenerate;
     let flags = cycles::inconsistent(&runs.per_variant[0], &lagged, &lagged_runs);
     assert!(flags[6].is_none(), "{flags:?}");
     runs.per_variant[0][7].status = PairStatus::Ok;
@@ -147,6 +162,43 @@ fn a_corrupted_middle_registration_is_flagged_and_its_neighbours_are_not() {
         alternatives_agree: true,
     }
     .is_failure());
+}
+
+#[test]
+fn a_lag_two_registration_that_fits_twice_accuses_no_neighbour() {
+    let ds = dataset();
+    let (mut runs, mut lagged) = registered(&ds);
+    corrupt_pair_6(&mut runs);
+    // Every lag-2 pair searched, each fitting once: pair 6 is flagged by both its loops.
+    let searched = |runner_up_score| PairSearch {
+        result: Ok(Some(GlobalGuess {
+            t_ref_src: nalgebra::Isometry2::identity(),
+            score: 0.6,
+            runner_up_score,
+            rotations: 1,
+            grid_lookups: 1,
+        })),
+        time_us: 0.0,
+    };
+    lagged.runs.searches = vec![searched(None); lagged.pairs.len()];
+    let alternatives = |lagged: &LagRuns| {
+        let flags = cycles::inconsistent(&runs.per_variant[0], lagged, &lagged.runs.per_variant[0]);
+        match &flags[6] {
+            Some(PairStatus::Inconsistent { alternatives, .. }) => Some(*alternatives),
+            None => None,
+            other => panic!("{other:?}"),
+        }
+    };
+    assert_eq!(alternatives(&lagged), Some(2));
+    // The search across 5 → 7 found a second place almost as good: that loop is no evidence,
+    // and pair 6 is judged by the one through pair 7 alone.
+    let across_5 = across(&lagged, 5);
+    lagged.runs.searches[across_5] = searched(Some(0.55));
+    assert_eq!(alternatives(&lagged), Some(1));
+    // Both lag-2 registrations through pair 6 fit twice: nothing accuses it.
+    let across_6 = across(&lagged, 6);
+    lagged.runs.searches[across_6] = searched(Some(0.5));
+    assert_eq!(alternatives(&lagged), None);
 }
 
 #[test]

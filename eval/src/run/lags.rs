@@ -2,8 +2,18 @@
 //! variant registers `k → k+ℓ` for `2 ≤ ℓ ≤ L` wherever the run's pairs `k … k+ℓ` are
 //! consecutive, with the same init chain and gate rules. Their loops against the chained
 //! consecutive pairs need no reference (measured in `measure/cycles.rs`).
+//!
+//! # The search window across a lag
+//! The global search's window bounds the motion between the scans of a pair (±2 m by default:
+//! aces' largest step is 1.54 m). Across ℓ pairs the scanner moves up to ℓ steps, so a pair
+//! across lag ℓ is searched within ℓ × the window ([`lag_window`]). With the consecutive
+//! pairs' window, 162 of aces' 438 lag-2 pairs moved more than 2 m along an axis: their
+//! search could not reach the motion, their registrations ended 1.3–2.5 m off with status
+//! ok, and the loops they closed accused right lag-1 registrations (`measure/cycles.rs`). The
+//! consecutive pairs' own search is not touched: their results stay as they were.
 
 use datasets::{Dataset, ScanPair};
+use icp_core::global::{GlobalParams, MAX_WINDOW_CELLS};
 use indicatif::ProgressBar;
 use serde::{Deserialize, Serialize};
 
@@ -69,8 +79,25 @@ pub fn lag_pairs(pairs: &[ScanPair], lags: usize) -> Result<Vec<LagPair>, EvalEr
         .collect())
 }
 
-/// Registers `lag_pairs` (the [`lag_pairs`] of a run across `lags`) with the registrars of
-/// `methods` as `plan` says; `None` for `lags` 1.
+/// The global search's parameters for a pair across lag `lag` from those of the consecutive
+/// pairs, `global`: the translation window `lag` times as wide (capped at the widest window
+/// the search takes), the same for the largest rotation (capped at 180°); `global` itself for
+/// `lag` 1. Both bound the motion of one step, and ℓ steps move up to ℓ times as far. The
+/// histogram window is not a motion bound (it is how far from a histogram peak the rotation
+/// may lie) and the cell and step sizes set the search's precision, not its reach: they stay.
+/// By default the rotation is already searched all round (180°), so only the window widens.
+pub fn lag_window(global: &GlobalParams, lag: usize) -> GlobalParams {
+    let scale = lag as f64;
+    GlobalParams {
+        window_m: (global.window_m * scale).min(MAX_WINDOW_CELLS * global.resolution_m),
+        max_rotation_deg: (global.max_rotation_deg * scale).min(180.0),
+        ..*global
+    }
+}
+
+/// Registers `lag_pairs` (the [`lag_pairs`] of a run across `lags`, each lag's pairs
+/// together) with the registrars of `methods` as `plan` says, each lag's pairs within its
+/// [`lag_window`]; `None` for `lags` 1.
 pub fn run(
     ds: &Dataset,
     lag_pairs: Vec<LagPair>,
@@ -86,8 +113,22 @@ pub fn run(
         external: &[],
         ..methods
     };
-    let scan_pairs: Vec<ScanPair> = lag_pairs.iter().map(|p| p.pair).collect();
-    let runs = runner::run_all(ds, &scan_pairs, registrars, plan, progress);
+    let mut runs = Runs::empty(registrars.len());
+    for same_lag in lag_pairs.chunk_by(|a, b| a.lag == b.lag) {
+        let global = lag_window(plan.global, same_lag[0].lag);
+        let lag_plan = RunPlan {
+            global: &global,
+            ..plan.clone()
+        };
+        let scan_pairs: Vec<ScanPair> = same_lag.iter().map(|p| p.pair).collect();
+        runs.append_pairs(runner::run_all(
+            ds,
+            &scan_pairs,
+            registrars,
+            &lag_plan,
+            progress,
+        ));
+    }
     Some(LagRuns {
         pairs: lag_pairs,
         runs,
@@ -125,5 +166,30 @@ mod tests {
             too_long.contains("--lags 6") && too_long.contains("5 pairs"),
             "{too_long}"
         );
+    }
+
+    #[test]
+    fn lag_windows_scale_the_motion_bounds_only() {
+        let one = GlobalParams {
+            max_rotation_deg: 50.0,
+            ..GlobalParams::default()
+        };
+        // Lag 1: the consecutive pairs' search, unchanged.
+        assert_eq!(lag_window(&one, 1), one);
+        let two = lag_window(&one, 2);
+        assert_eq!((two.window_m, two.max_rotation_deg), (4.0, 100.0));
+        assert_eq!(
+            GlobalParams {
+                window_m: one.window_m,
+                max_rotation_deg: one.max_rotation_deg,
+                ..two
+            },
+            one
+        );
+        // Capped: a turn of at most 180°, and the widest window the search takes.
+        let far = lag_window(&one, 5000);
+        assert_eq!(far.max_rotation_deg, 180.0);
+        assert_eq!(far.window_m, MAX_WINDOW_CELLS * one.resolution_m);
+        assert!(far.validate().is_ok());
     }
 }

@@ -90,6 +90,33 @@ pub struct Runs {
     pub searches: Vec<PairSearch>,
 }
 
+impl Runs {
+    /// A run of `methods` methods with no pair.
+    pub fn empty(methods: usize) -> Self {
+        Self {
+            per_variant: vec![Vec::new(); methods],
+            prepare_us: Vec::new(),
+            searches: Vec::new(),
+        }
+    }
+
+    /// Appends `more`, the same methods' registrations of the pairs that follow (a run made
+    /// in parts, pairs after pairs).
+    pub fn append_pairs(&mut self, more: Runs) {
+        if self.per_variant.is_empty() {
+            self.per_variant = more.per_variant;
+        } else {
+            for (variant, runs) in self.per_variant.iter_mut().zip(more.per_variant) {
+                variant.extend(runs);
+            }
+        }
+        self.searches.extend(more.searches);
+        // The surface-estimate times of a scan at the parts' edge are counted in both: a
+        // timing, like every field that differs from a single run.
+        self.prepare_us.extend(more.prepare_us);
+    }
+}
+
 /// What a run does besides registering: where registrations start, and whether a global
 /// search checks every result.
 #[derive(Clone)]

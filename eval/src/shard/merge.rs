@@ -290,7 +290,7 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
                     MergedRun::Basin(Vec::new())
                 } else {
                     MergedRun::Runs {
-                        runs: empty_runs(plan.methods(i)),
+                        runs: Runs::empty(plan.methods(i)),
                         lagged: None,
                     }
                 }
@@ -314,39 +314,21 @@ pub fn merge(paths: &[PathBuf]) -> Result<Merged, MergeError> {
     })
 }
 
-/// A run of `variants` variants with no pair.
-fn empty_runs(variants: usize) -> Runs {
-    Runs {
-        per_variant: vec![Vec::new(); variants],
-        prepare_us: Vec::new(),
-        searches: Vec::new(),
-    }
-}
-
 /// Appends the next slice `more` of a run to `all`, as the run is cut: the next pairs of
 /// every variant, or the next variants.
 fn append(all: &mut Runs, more: Runs, cut: Cut) {
     match cut {
-        Cut::Pairs => {
-            if all.per_variant.is_empty() {
-                all.per_variant = more.per_variant;
-            } else {
-                for (variant, runs) in all.per_variant.iter_mut().zip(more.per_variant) {
-                    variant.extend(runs);
-                }
-            }
-            all.searches.extend(more.searches);
-        }
+        Cut::Pairs => all.append_pairs(more),
         Cut::Variants => {
             all.per_variant.extend(more.per_variant);
             if all.searches.is_empty() {
                 all.searches = more.searches;
             }
+            // Each slice prepares the scans: their surface-estimate times are counted once
+            // per slice, a timing, like every field that differs from a single run.
+            all.prepare_us.extend(more.prepare_us);
         }
     }
-    // Surface-estimate times of scans at a slice's edge are counted in both slices: a
-    // timing, like every field that differs from a single run.
-    all.prepare_us.extend(more.prepare_us);
 }
 
 /// Appends the next slice `more` of a run's registrations across lags to `all`, as the run
