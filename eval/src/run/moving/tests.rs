@@ -68,10 +68,7 @@ fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
         leaving_first(&ds.scans[1], 5),
     );
     let after = |t_ref_src: Isometry2<f64>| {
-        let result = Ok(Registration {
-            t_ref_src,
-            ..right.clone()
-        });
+        let result = Ok(Registration { t_ref_src, ..right });
         let mut run = PairRun {
             status: PairStatus::of(&result, None, None),
             result,
