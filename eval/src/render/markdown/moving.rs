@@ -5,6 +5,7 @@
 use std::fmt::Write as _;
 
 use crate::measure::report::RunReport;
+use crate::run::moving::{PULL_APART_DEG, PULL_APART_M};
 
 /// The moving-returns section (nothing when no variant has a detector).
 pub fn moving_md(out: &mut String, report: &RunReport) {
@@ -18,7 +19,7 @@ pub fn moving_md(out: &mut String, report: &RunReport) {
     }
     let _ = writeln!(
         out,
-        "\n## Moving returns (`left_out_src`, `left_out_ref` of `pairs.csv`)\n\nA variant with a detector of moving returns registers each pair again without the returns its neighbours in the sequence looked through. Recall is the share of the returns labelled moving that were left out, and static left out the share of the others (over the pairs' source scans, where the dataset has the labels). A pair is flagged `dynamic` (a failure, counted above) when much of a scan moves, or when the motion without the moving returns is far from the motion with them.\n"
+        "\n## Moving returns (`left_out_src`, `left_out_ref` of `pairs.csv`)\n\nA variant with a detector of moving returns registers each pair again without the returns its neighbours in the sequence looked through. Recall is the share of the returns labelled moving that were left out, and static left out the share of the others (over the pairs' source scans, where the dataset has the labels). A pair is flagged `dynamic` (a failure, counted above) when much of a scan moves, or when the motion without the moving returns is far from the motion with them and the returns kept, paired once at that motion, pull it away too (more than {PULL_APART_M} m or {PULL_APART_DEG}°).\n"
     );
     let _ = writeln!(
         out,

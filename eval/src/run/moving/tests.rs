@@ -1,0 +1,102 @@
+use datasets::synthetic::{generate, Scenario};
+use icp_core::spec::VariantSpec;
+use icp_core::variants::builtin;
+use icp_core::{IcpError, Registration, Scan, SurfaceParams};
+use nalgebra::Vector2;
+
+use super::*;
+
+/// PL_ICP, but every registration lands a metre to the side of where PL_ICP would: a second
+/// registration that wanders into another basin, whatever its start.
+struct Wanders(Icp);
+
+impl Registrar for Wanders {
+    fn name(&self) -> &str {
+        "WANDERS"
+    }
+
+    fn spec(&self) -> VariantSpec {
+        self.0.spec()
+    }
+
+    fn surface_params(&self) -> SurfaceParams {
+        self.0.surface_params()
+    }
+
+    fn register_prepared(
+        &self,
+        workspace: &mut Workspace,
+        source: Prepared<'_>,
+        reference: Prepared<'_>,
+        init: Isometry2<f64>,
+    ) -> Result<Registration, IcpError> {
+        let mut r = self
+            .0
+            .register_prepared(workspace, source, reference, init)?;
+        r.t_ref_src = Isometry2::translation(1.0, 0.0) * r.t_ref_src;
+        Ok(r)
+    }
+}
+
+/// A detection leaving out the first `n` returns of `scan`.
+fn leaving_first(scan: &Scan, n: usize) -> Detection {
+    let left_out = (0..scan.len()).map(|i| i < n).collect();
+    Detection::new(scan, left_out, n, 0.5)
+}
+
+/// A jump of the second registration is flagged `dynamic` only when the kept returns pull
+/// away from the start: from PL_ICP's own result (which they fit) the pair keeps its result
+/// and status; from a start 0.1 m off it is flagged, the start kept.
+#[test]
+fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
+    let ds = generate(&Scenario {
+        n_scans: 2,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let pair = ScanPair {
+        source: 0,
+        reference: 1,
+    };
+    let pl = builtin("PL_ICP").unwrap().build().unwrap();
+    let right = pl
+        .register(&ds.scans[0], &ds.scans[1], Isometry2::identity())
+        .unwrap();
+    let wanders = Wanders(pl);
+    let found = (
+        leaving_first(&ds.scans[0], 5),
+        leaving_first(&ds.scans[1], 5),
+    );
+    let after = |t_ref_src: Isometry2<f64>| {
+        let result = Ok(Registration { t_ref_src, ..right });
+        let mut run = PairRun {
+            status: PairStatus::of(&result, None, None),
+            result,
+            check: None,
+            ambiguity: None,
+            init: None,
+            attempts: 1,
+            time_us: None,
+            left_out: None,
+        };
+        let before = run.status.clone();
+        again(
+            &ds,
+            &wanders,
+            &mut Workspace::default(),
+            pair,
+            (&found.0, &found.1),
+            &mut run,
+        );
+        let kept = run.result.as_ref().unwrap().t_ref_src;
+        assert_eq!(kept, t_ref_src, "the start is kept");
+        assert_eq!(run.left_out.as_ref().unwrap().source, 5);
+        (before, run.status)
+    };
+    let (before, status) = after(right.t_ref_src);
+    assert_eq!(status, before);
+    assert!(!matches!(status, PairStatus::Dynamic { .. }), "{status}");
+    let off = Isometry2::new(Vector2::new(0.1, 0.0), 0.0) * right.t_ref_src;
+    let (_, status) = after(off);
+    assert!(matches!(status, PairStatus::Dynamic { .. }), "{status}");
+}
