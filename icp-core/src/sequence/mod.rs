@@ -113,7 +113,11 @@ pub struct SmootherOptions {
     /// Huber threshold on a registration's Mahalanobis distance. Default 3.37 = √χ²₃(0.99): a
     /// registration as good as its covariance says keeps full weight 99 % of the time.
     pub huber_k: f64,
-    /// Gauss–Newton iterations at most per solve.
+    /// Gauss–Newton iterations at most per solve. Default 100: a solve from a start far from
+    /// its minimum takes halved steps (the solvers' step control) and needs more than
+    /// the 20 it had; at 20 the aces log's HD_GICP+batch (`--init global --lags 3`) stopped
+    /// short, 226 of 439 steps within 0.1 m and 1° against 283 at 100 (as many as the
+    /// pairwise registrations). A solve that converges stops earlier.
     pub max_iterations: usize,
     /// Gauss–Newton stops when no state moves by more than this (m, rad, m/s, rad/s).
     pub tolerance: f64,
@@ -139,7 +143,7 @@ impl Default for SmootherOptions {
                 likelihood_tolerance: 1e-5,
             },
             huber_k: 3.37,
-            max_iterations: 20,
+            max_iterations: 100,
             tolerance: 1e-10,
             initial_twist: None,
         }
