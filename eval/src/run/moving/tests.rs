@@ -72,12 +72,7 @@ fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
         let mut run = PairRun {
             status: PairStatus::of(&result, None, None),
             result,
-            check: None,
-            ambiguity: None,
-            init: None,
-            attempts: 1,
-            time_us: None,
-            left_out: None,
+            ..PairRun::ok_for_test(t_ref_src, None)
         };
         let before = run.status.clone();
         again(
