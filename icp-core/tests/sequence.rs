@@ -5,7 +5,7 @@
 
 use icp_core::sequence::{
     smooth, Geometry, Mode, ProcessNoise, SequenceError, SequenceRegistration, SmootherOptions,
-    TwistPrior,
+    SolveStop, TwistPrior,
 };
 use nalgebra::{DMatrix, DVector, Isometry2, Matrix3, SMatrix, Vector2, Vector3};
 use rand::{Rng, SeedableRng};
@@ -561,5 +561,25 @@ fn a_turn_reversed_where_every_registration_out_of_two_scans_is_flagged_is_recov
                 "scan {k} in {mode:?}: {e:?}"
             );
         }
+    }
+}
+
+#[test]
+fn a_solve_cut_short_says_so() {
+    let qc = [0.02, 0.01, 1e-4];
+    let run = simulate(35_011, 40, 2, qc, false);
+    let options = SmootherOptions {
+        process_noise: ProcessNoise::Fixed(qc),
+        ..SmootherOptions::default()
+    };
+    let short = SmootherOptions {
+        max_iterations: 1,
+        ..options
+    };
+    for mode in [Mode::Batch, Mode::Causal { lag_scans: 0 }] {
+        let out = smooth(&run.times_s, &run.regs, mode, &options).unwrap();
+        assert_ne!(out.stop, SolveStop::IterationCap, "{mode:?}");
+        let out = smooth(&run.times_s, &run.regs, mode, &short).unwrap();
+        assert_eq!(out.stop, SolveStop::IterationCap, "{mode:?}");
     }
 }

@@ -98,6 +98,12 @@ pub struct SequenceSummary {
     pub qc: Option<[f64; 3]>,
     /// Expectation–maximisation rounds.
     pub em_rounds: usize,
+    /// How the solve that gave its estimates stopped (the causal estimator: the worst of its
+    /// windows'): `converged`, `no_descent` (no step lowered the cost: a minimum to within
+    /// rounding) or `iteration_cap` (the estimates may lie short of their minimum). None when
+    /// it gave nothing.
+    #[serde(default)]
+    pub solve_stop: Option<String>,
     /// Whether `sequence.csv`'s headings and courses start from the reference's heading at the
     /// first scan (else from 0: the first scan's heading, not a true one).
     #[serde(default)]
@@ -222,6 +228,7 @@ fn smooth_variant(
                     left_out_loop_open: left_out.loop_open,
                     qc: batch.as_ref().ok().map(|b| b.qc),
                     em_rounds: batch.as_ref().map_or(0, |b| b.em_iterations),
+                    solve_stop: out.as_ref().ok().map(|s| s.stop.name().to_owned()),
                     heading_from_reference: first_heading_deg(run).is_some(),
                     error: out.as_ref().err().map(|e| e.to_string()),
                 },
@@ -522,6 +529,7 @@ mod tests {
                 .collect(),
             qc: [1.0; 3],
             em_iterations: 0,
+            stop: icp_core::sequence::SolveStop::Converged,
         };
         let cov_of = |_: &PairRun| Some(Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-6)));
         let runs = pair_runs(&pairs, &scans, &own, &Ok(smoothed), &cov_of);

@@ -12,8 +12,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::band::Band;
 use super::factors::Matrix6;
-use super::system::{descend, Discard, Estimates, Layout, Model, Sink};
-use super::SequenceError;
+use super::system::{descend, stopped, Discard, Estimates, Layout, Model, Sink};
+use super::{SequenceError, SolveStop};
 
 /// The upper triangle of H in compressed columns, its symbolic factorisation, and g.
 pub(crate) struct SparseSystem {
@@ -139,7 +139,7 @@ fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &
 
 /// Gauss–Newton with step control ([`descend`]) from `est` until the largest step is below
 /// `tolerance`, no step lowers the cost, or after `max_iterations`; leaves `sys` linearised
-/// at the result and returns the cost there.
+/// at the result and returns the cost there and how it stopped.
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -147,8 +147,9 @@ pub(crate) fn solve(
     layout: &Layout,
     max_iterations: usize,
     tolerance: f64,
-) -> Result<f64, SequenceError> {
+) -> Result<(f64, SolveStop), SequenceError> {
     let mut trial = est.clone();
+    let mut stop = SolveStop::IterationCap;
     for _ in 0..max_iterations {
         let cost = linearise(model, est, layout, sys);
         let delta = sys.step(&sys.factor()?);
@@ -156,7 +157,7 @@ pub(crate) fn solve(
             return Err(SequenceError::Factorisation { what: "step" });
         }
         let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
-        match descend(
+        let taken = descend(
             model.geometry,
             layout,
             est,
@@ -164,12 +165,13 @@ pub(crate) fn solve(
             &delta,
             cost,
             cost_at,
-        ) {
-            Some(scale) if delta.iter().any(|d| (d * scale).abs() > tolerance) => {}
-            _ => break,
+        );
+        if let Some(how) = stopped(taken, &delta, tolerance) {
+            stop = how;
+            break;
         }
     }
-    Ok(linearise(model, est, layout, sys))
+    Ok((linearise(model, est, layout, sys), stop))
 }
 
 /// The marginals of a solution (see [`marginals`]).

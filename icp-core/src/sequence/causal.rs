@@ -6,8 +6,8 @@
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Vector3};
 
 use super::factors::{self, Matrix6};
-use super::system::{descend, Discard, Estimates, Layout, Model, Sink};
-use super::{ScanEstimate, SequenceError, SmootherOptions, StepEstimate};
+use super::system::{descend, stopped, Discard, Estimates, Layout, Model, Sink};
+use super::{Outputs, ScanEstimate, SequenceError, SmootherOptions, SolveStop, StepEstimate};
 
 /// H and g of a window, dense.
 struct DenseSystem {
@@ -99,13 +99,13 @@ impl MarginalPrior {
 
 /// Runs the causal smoother over every scan; scan j is reported from the window at scan
 /// `max(j + lag_scans, 1)`, step `j → j+1` from the window at scan `j + 1 + lag_scans` (or the
-/// last scan, for the run's end).
+/// last scan, for the run's end). Also the worst way a window's solve stopped.
 pub(crate) fn run(
     model: &Model<'_>,
     mut est: Estimates,
     lag_scans: usize,
     options: &SmootherOptions,
-) -> Result<(Vec<ScanEstimate>, Vec<StepEstimate>), SequenceError> {
+) -> Result<(Outputs, SolveStop), SequenceError> {
     let n = est.poses.len();
     let max_lag = model
         .regs
@@ -119,10 +119,11 @@ pub(crate) fn run(
     let mut first = 0;
     let mut marginal: Option<MarginalPrior> = None;
     let mut trial = est.clone();
+    let mut stop = SolveStop::Converged;
     for k in 1..n {
         predict(model, &mut est, k);
         let layout = Layout::new(first, k - first + 1);
-        let sys = solve_window(
+        let (sys, window_stop) = solve_window(
             model,
             &mut est,
             &mut trial,
@@ -131,6 +132,7 @@ pub(crate) fn run(
             (first, k),
             options,
         )?;
+        stop = stop.max(window_stop);
         let cov = Cholesky::new(sys.h.clone())
             .ok_or(SequenceError::Factorisation {
                 what: "causal window",
@@ -164,16 +166,15 @@ pub(crate) fn run(
             first += 1;
         }
     }
-    Ok((
-        scans
-            .into_iter()
-            .map(|s| s.expect("every scan is reported"))
-            .collect(),
-        steps
-            .into_iter()
-            .map(|s| s.expect("every step is reported"))
-            .collect(),
-    ))
+    let scans = scans
+        .into_iter()
+        .map(|s| s.expect("every scan is reported"))
+        .collect();
+    let steps = steps
+        .into_iter()
+        .map(|s| s.expect("every step is reported"))
+        .collect();
+    Ok(((scans, steps), stop))
 }
 
 /// Starts scan k from k−1's twist held over Δt (or the registration k−1 → k where there is one).
@@ -241,7 +242,7 @@ fn add_window<S: Sink>(
 }
 
 /// Gauss–Newton with step control ([`descend`]) over the window `first..=k`; `trial` is
-/// scratch states of the run's size.
+/// scratch states of the run's size. Returns the system at the result and how it stopped.
 fn solve_window(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -250,7 +251,8 @@ fn solve_window(
     marginal: Option<&MarginalPrior>,
     (first, k): (usize, usize),
     options: &SmootherOptions,
-) -> Result<DenseSystem, SequenceError> {
+) -> Result<(DenseSystem, SolveStop), SequenceError> {
+    let mut stop = SolveStop::IterationCap;
     for _ in 0..options.max_iterations {
         let (sys, cost) = linearise(model, est, layout, marginal, first, k);
         let chol = Cholesky::new(sys.h.clone()).ok_or(SequenceError::Factorisation {
@@ -264,7 +266,7 @@ fn solve_window(
         }
         let cost_at =
             |e: &Estimates| add_window(model, e, layout, marginal, first, k, &mut Discard);
-        let step = descend(
+        let taken = descend(
             model.geometry,
             layout,
             est,
@@ -273,12 +275,12 @@ fn solve_window(
             cost,
             cost_at,
         );
-        match step {
-            Some(scale) if delta.iter().any(|d| (d * scale).abs() > options.tolerance) => {}
-            _ => break,
+        if let Some(how) = stopped(taken, delta.as_slice(), options.tolerance) {
+            stop = how;
+            break;
         }
     }
-    Ok(linearise(model, est, layout, marginal, first, k).0)
+    Ok((linearise(model, est, layout, marginal, first, k).0, stop))
 }
 
 /// Replaces the factors on scan `first` (its prior to `first + 1`, its registrations, and the

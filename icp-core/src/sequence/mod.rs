@@ -191,6 +191,30 @@ pub struct StepEstimate {
     pub supported: bool,
 }
 
+/// How a Gauss–Newton solve of the smoother stopped, from the best to the worst.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum SolveStop {
+    /// No state moved by more than [`SmootherOptions::tolerance`].
+    Converged,
+    /// No step along Gauss–Newton's direction, halved down to 1/4096, lowered the cost: a
+    /// minimum to within rounding, or a kink of the robust loss.
+    NoDescent,
+    /// [`SmootherOptions::max_iterations`] reached while states still moved: the estimate may
+    /// lie short of its minimum.
+    IterationCap,
+}
+
+impl SolveStop {
+    /// Its name in the outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Converged => "converged",
+            Self::NoDescent => "no_descent",
+            Self::IterationCap => "iteration_cap",
+        }
+    }
+}
+
 /// What the smoother gives.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Smoothed {
@@ -200,6 +224,9 @@ pub struct Smoothed {
     pub qc: [f64; 3],
     /// Expectation–maximisation rounds (0 for a fixed `Qc`).
     pub em_iterations: usize,
+    /// How the solve that gave the estimates stopped (the causal mode: the worst of its
+    /// windows').
+    pub stop: SolveStop,
 }
 
 /// Smooths the scans at `times_s` from `registrations` (the unflagged ones) in `mode`.
@@ -247,10 +274,10 @@ pub fn smooth(
         huber_k: options.huber_k,
         twist0: twist0(options)?,
     };
-    let (scans, steps) = match mode {
+    let ((scans, steps), stop) = match mode {
         Mode::Batch => {
-            let (est, m) = noise::batch_with_marginals(&model, init, options)?;
-            outputs(&model, &est, &m.own, &m.cross)
+            let (est, m, stop) = noise::batch_with_marginals(&model, init, options)?;
+            (outputs(&model, &est, &m.own, &m.cross), stop)
         }
         Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,
     };
@@ -259,6 +286,7 @@ pub fn smooth(
         steps,
         qc,
         em_iterations,
+        stop,
     })
 }
 
@@ -406,13 +434,16 @@ fn inverse_params(geometry: Geometry, z: &Vector3<f64>) -> Vector3<f64> {
     t
 }
 
+/// Every scan's estimate and every consecutive pair's fused step.
+pub(crate) type Outputs = (Vec<ScanEstimate>, Vec<StepEstimate>);
+
 /// The scans' and steps' outputs from estimates and marginals (`own[k]`, `cross[k] = Σ_k,k+1`).
 fn outputs(
     model: &Model<'_>,
     est: &Estimates,
     own: &[StateCovariance],
     cross: &[StateCovariance],
-) -> (Vec<ScanEstimate>, Vec<StepEstimate>) {
+) -> Outputs {
     let scans = (0..est.poses.len())
         .map(|k| ScanEstimate {
             pose: est.poses[k],

@@ -7,22 +7,22 @@ use nalgebra::SMatrix;
 use super::batch::{self, Marginals, SparseSystem};
 use super::factors::{self, Matrix6};
 use super::system::{Estimates, Layout, Model, Reg};
-use super::{full_layout, Geometry, SequenceError, SmootherOptions};
+use super::{full_layout, Geometry, SequenceError, SmootherOptions, SolveStop};
 
 /// Smallest `q` an axis may take, so that `Q` stays invertible when an axis does not move.
 const Q_FLOOR: f64 = 1e-12;
 
 /// The batch solve at `model`'s `Qc` from `init`, with every scan's marginal covariance and
-/// the cross-covariance of consecutive scans.
+/// the cross-covariance of consecutive scans, and how the solve stopped.
 pub(crate) fn batch_with_marginals(
     model: &Model<'_>,
     est: Estimates,
     options: &SmootherOptions,
-) -> Result<(Estimates, Marginals), SequenceError> {
+) -> Result<(Estimates, Marginals, SolveStop), SequenceError> {
     let layout = full_layout(est.poses.len());
     let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
-    let (est, marginals, _) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
-    Ok((est, marginals))
+    let (est, marginals, (_, stop)) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
+    Ok((est, marginals, stop))
 }
 
 /// [`batch_with_marginals`] on the system `sys` already laid out (its symbolic factorisation
@@ -33,8 +33,8 @@ fn solve_with_marginals(
     sys: &mut SparseSystem,
     layout: &Layout,
     options: &SmootherOptions,
-) -> Result<(Estimates, Marginals, f64), SequenceError> {
-    let cost = batch::solve(
+) -> Result<(Estimates, Marginals, (f64, SolveStop)), SequenceError> {
+    let solved = batch::solve(
         model,
         &mut est,
         sys,
@@ -43,7 +43,7 @@ fn solve_with_marginals(
         options.tolerance,
     )?;
     let marginals = batch::marginals(sys, layout, est.poses.len())?;
-    Ok((est, marginals, cost))
+    Ok((est, marginals, solved))
 }
 
 /// The log-likelihood of the registrations given `qc`, by Laplace's approximation at the
@@ -198,7 +198,7 @@ impl Em<'_> {
             none => none.insert(SparseSystem::new(&model, &self.layout, self.times_s.len())?),
         };
         // From the last round's solution, kept should this one fail.
-        let (smoothed, marginals, cost) =
+        let (smoothed, marginals, (cost, _)) =
             solve_with_marginals(&model, self.est.clone(), sys, &self.layout, self.options)?;
         let next = m_step(&model, &smoothed, &marginals.own, &marginals.cross);
         let evidence = log_evidence(&qc, self.times_s.len() - 1, cost, marginals.log_det_h);

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::factors::{self, Matrix6};
-use super::Geometry;
+use super::{Geometry, SolveStop};
 
 /// A 3-vector's mean and information.
 pub(crate) type Gaussian3 = (Vector3<f64>, Matrix3<f64>);
@@ -105,6 +105,16 @@ impl Layout {
         let states = self.first..self.first + self.twist.len();
         to.poses[states.clone()].copy_from_slice(&from.poses[states.clone()]);
         to.twists[states.clone()].copy_from_slice(&from.twists[states]);
+    }
+}
+
+/// What a step [`descend`] took (`taken`, for the Gauss–Newton step `delta`) says of the
+/// solve: `None` while it goes on, else how it stopped.
+pub(crate) fn stopped(taken: Option<f64>, delta: &[f64], tolerance: f64) -> Option<SolveStop> {
+    match taken {
+        Some(scale) if delta.iter().any(|d| (d * scale).abs() > tolerance) => None,
+        Some(_) => Some(SolveStop::Converged),
+        None => Some(SolveStop::NoDescent),
     }
 }
 
