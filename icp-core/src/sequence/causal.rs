@@ -123,15 +123,14 @@ pub(crate) fn run(
     for k in 1..n {
         predict(model, &mut est, k);
         let layout = Layout::new(first, k - first + 1);
-        let (sys, window_stop) = solve_window(
+        let window = Window {
             model,
-            &mut est,
-            &mut trial,
-            &layout,
-            marginal.as_ref(),
-            (first, k),
-            options,
-        )?;
+            layout: &layout,
+            marginal: marginal.as_ref(),
+            first,
+            k,
+        };
+        let (sys, window_stop) = window.solve(&mut est, &mut trial, options)?;
         stop = stop.max(window_stop);
         let cov = Cholesky::new(sys.h.clone())
             .ok_or(SequenceError::Factorisation {
@@ -198,89 +197,82 @@ fn predict(model: &Model<'_>, est: &mut Estimates, k: usize) {
     };
 }
 
-/// Linearises the window's factors (priors and registrations within `first..=k`, and the
-/// marginal of what left) at `est`.
-fn linearise(
-    model: &Model<'_>,
-    est: &Estimates,
-    layout: &Layout,
-    marginal: Option<&MarginalPrior>,
+/// The factors of the window over scans `first..=k` (laid out as `layout`): the priors and
+/// registrations within it, and the marginal of what left it.
+struct Window<'w> {
+    model: &'w Model<'w>,
+    layout: &'w Layout,
+    marginal: Option<&'w MarginalPrior>,
     first: usize,
     k: usize,
-) -> (DenseSystem, f64) {
-    let mut sys = DenseSystem::zeros(layout.dim());
-    let cost = add_window(model, est, layout, marginal, first, k, &mut sys);
-    (sys, cost)
 }
 
-/// Adds the window's factors at `est` into `sink`; returns their cost.
-fn add_window<S: Sink>(
-    model: &Model<'_>,
-    est: &Estimates,
-    layout: &Layout,
-    marginal: Option<&MarginalPrior>,
-    first: usize,
-    k: usize,
-    sink: &mut S,
-) -> f64 {
-    let mut cost = 0.0;
-    if first == 0 {
-        cost += model.add_twist0(est, layout, sink);
-    }
-    for j in first..k {
-        cost += model.add_prior(est, layout, j, sink);
-    }
-    for (i, r) in model.regs.iter().enumerate() {
-        if r.source >= first && r.reference <= k {
-            cost += model.add_reg(est, layout, i, sink);
+impl Window<'_> {
+    /// Adds the window's factors at `est` into `sink`; returns their cost.
+    fn add<S: Sink>(&self, est: &Estimates, sink: &mut S) -> f64 {
+        let (model, layout) = (self.model, self.layout);
+        let mut cost = 0.0;
+        if self.first == 0 {
+            cost += model.add_twist0(est, layout, sink);
         }
+        for j in self.first..self.k {
+            cost += model.add_prior(est, layout, j, sink);
+        }
+        for (i, r) in model.regs.iter().enumerate() {
+            if r.source >= self.first && r.reference <= self.k {
+                cost += model.add_reg(est, layout, i, sink);
+            }
+        }
+        if let Some(m) = self.marginal {
+            cost += m.add(model, est, layout, sink);
+        }
+        cost
     }
-    if let Some(m) = marginal {
-        cost += m.add(model, est, layout, sink);
-    }
-    cost
-}
 
-/// Gauss–Newton with step control ([`descend`]) over the window `first..=k`; `trial` is
-/// scratch states of the run's size. Returns the system at the result and how it stopped.
-fn solve_window(
-    model: &Model<'_>,
-    est: &mut Estimates,
-    trial: &mut Estimates,
-    layout: &Layout,
-    marginal: Option<&MarginalPrior>,
-    (first, k): (usize, usize),
-    options: &SmootherOptions,
-) -> Result<(DenseSystem, SolveStop), SequenceError> {
-    let mut stop = SolveStop::IterationCap;
-    for _ in 0..options.max_iterations {
-        let (sys, cost) = linearise(model, est, layout, marginal, first, k);
-        let chol = Cholesky::new(sys.h.clone()).ok_or(SequenceError::Factorisation {
-            what: "causal window",
-        })?;
-        let delta = chol.solve(&(-&sys.g));
-        if delta.iter().any(|d| !d.is_finite()) {
-            return Err(SequenceError::Factorisation {
-                what: "causal step",
-            });
-        }
-        let cost_at =
-            |e: &Estimates| add_window(model, e, layout, marginal, first, k, &mut Discard);
-        let taken = descend(
-            model.geometry,
-            layout,
-            est,
-            trial,
-            delta.as_slice(),
-            cost,
-            cost_at,
-        );
-        if let Some(how) = stopped(taken, delta.as_slice(), options.tolerance) {
-            stop = how;
-            break;
-        }
+    /// The window's system linearised at `est`, and its cost there.
+    fn linearise(&self, est: &Estimates) -> (DenseSystem, f64) {
+        let mut sys = DenseSystem::zeros(self.layout.dim());
+        let cost = self.add(est, &mut sys);
+        (sys, cost)
     }
-    Ok((linearise(model, est, layout, marginal, first, k).0, stop))
+
+    /// Gauss–Newton with step control ([`descend`]) from `est`; `trial` is scratch states of
+    /// the run's size. Returns the system at the result and how it stopped.
+    fn solve(
+        &self,
+        est: &mut Estimates,
+        trial: &mut Estimates,
+        options: &SmootherOptions,
+    ) -> Result<(DenseSystem, SolveStop), SequenceError> {
+        let mut stop = SolveStop::IterationCap;
+        for _ in 0..options.max_iterations {
+            let (sys, cost) = self.linearise(est);
+            let chol = Cholesky::new(sys.h.clone()).ok_or(SequenceError::Factorisation {
+                what: "causal window",
+            })?;
+            let delta = chol.solve(&(-&sys.g));
+            if delta.iter().any(|d| !d.is_finite()) {
+                return Err(SequenceError::Factorisation {
+                    what: "causal step",
+                });
+            }
+            let cost_at = |e: &Estimates| self.add(e, &mut Discard);
+            let taken = descend(
+                self.model.geometry,
+                self.layout,
+                est,
+                trial,
+                delta.as_slice(),
+                cost,
+                cost_at,
+            );
+            if let Some(how) = stopped(taken, delta.as_slice(), options.tolerance) {
+                stop = how;
+                break;
+            }
+        }
+        Ok((self.linearise(est).0, stop))
+    }
 }
 
 /// Replaces the factors on scan `first` (its prior to `first + 1`, its registrations, and the
