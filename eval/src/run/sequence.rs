@@ -262,9 +262,10 @@ fn covariance_of(setup: &EvalSetup, inflation: f64, run: &PairRun) -> Option<Mat
     else {
         return None;
     };
-    Some(match extended::ambiguity_term(run) {
-        Some(term) if setup.covariance.is_extended() => cov + term,
-        _ => cov,
+    // The motion term needs the run's motion, which the smoother estimates: none here.
+    Some(match extended::added_terms(None, run, setup.covariance) {
+        Some(term) => cov + term,
+        None => cov,
     })
 }
 

@@ -117,7 +117,8 @@ pub struct SmootherOptions {
     /// its minimum takes halved steps (the solvers' step control) and needs more than
     /// the 20 it had; at 20 the aces log's HD_GICP+batch (`--init global --lags 3`) stopped
     /// short, 226 of 439 steps within 0.1 m and 1° against 283 at 100 (as many as the
-    /// pairwise registrations). A solve that converges stops earlier.
+    /// pairwise registrations). A solve that converges stops earlier: checked on the paper and
+    /// rough harbours, whose solves stop in 3–44 iterations.
     pub max_iterations: usize,
     /// Gauss–Newton stops when no state moves by more than this (m, rad, m/s, rad/s).
     pub tolerance: f64,

@@ -125,10 +125,9 @@ const MAX_HALVINGS: usize = 12;
 /// Step control of the smoothers' Gauss–Newton: moves `est` by the step `delta` (laid out as
 /// `layout`), halved until the cost (`cost`, at the trial states in `trial`, a scratch copy
 /// of `est`) is no higher than `cost_now`; returns the scale taken, or `None` (and `est`
-/// unchanged) when no step down to [`MAX_HALVINGS`] halvings lowers it. Without it a full
-/// step from a poor start overshot on the aces log's fast turns, and after the log's 18 s
-/// pause (where the prior barely ties the scans) it diverged until the causal window's
-/// system was no longer positive definite.
+/// unchanged) when no step down to [`MAX_HALVINGS`] halvings lowers it. Without it, after
+/// the aces log's 18 s pause (where the prior barely ties the scans) full steps diverged until
+/// the causal window's system was no longer positive definite.
 pub(crate) fn descend(
     geometry: Geometry,
     layout: &Layout,
