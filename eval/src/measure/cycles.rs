@@ -47,7 +47,6 @@
 //! nothing and the rule removes the 2, 2, 1 and 0 flags on right pairs, and the only flag of
 //! 0, 0, 1 and 3 badly wrong ones, all covered (silent stays 0, 0, 1 and 1).
 
-use icp_core::motion::wrap_deg;
 use icp_core::{Covariance, Registration};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
@@ -60,7 +59,7 @@ use crate::run::extended;
 use crate::run::lags::{LagPair, LagRuns};
 use crate::run::runner::{PairRun, PairSearch, Runs};
 use crate::run::setup::EvalSetup;
-use crate::run::status::PairStatus;
+use crate::run::status::{apart, PairStatus};
 
 /// One loop of one variant (a row of `cycles.csv`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -104,14 +103,6 @@ pub struct CycleSummary {
     /// Wall time of the global searches of the pairs across lags per consecutive pair, µs
     /// (made once, shared by every variant; none without `--init global` or checks).
     pub lag_search_time_per_pair_us: Option<f64>,
-}
-
-/// How far apart two estimates of one `t_ref_src` are: translation m, |rotation| degrees.
-pub fn apart(a: &Isometry2<f64>, b: &Isometry2<f64>) -> (f64, f64) {
-    (
-        (a.translation.vector - b.translation.vector).norm(),
-        wrap_deg((a.rotation.angle() - b.rotation.angle()).to_degrees()).abs(),
-    )
 }
 
 /// The chained `t_ref_src` of consecutive registrations `steps` (`k → k+1` first): scan k

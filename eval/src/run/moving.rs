@@ -36,7 +36,7 @@ use crate::run::extended::extended;
 use crate::run::lags::LagRuns;
 use crate::run::left_out::{Confusion, DrawnScan, LeftOut};
 use crate::run::runner::{self, Methods, PairRun, RunPlan, Runs};
-use crate::run::status::{PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
+use crate::run::status::{apart, PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
 
 /// A jump is split evidence only when the kept returns alone, paired once at the start
 /// ([`local_fit`]), pull it farther than this, m…
@@ -469,7 +469,7 @@ fn again(
     // Split evidence: the motion without the moving returns is far from the one it started
     // from (another basin, whatever its own verdict: the start, which the round before agreed
     // on, is kept), or much of a scan moves (the result without them is kept).
-    let jumped = apart(
+    let jumped = beyond(
         &first.t_ref_src,
         &without.t_ref_src,
         SUSPECT_APART_M,
@@ -492,7 +492,7 @@ fn again(
             first.t_ref_src,
         )
         .map_or(true, |fit| {
-            apart(&first.t_ref_src, &fit, PULL_APART_M, PULL_APART_DEG)
+            beyond(&first.t_ref_src, &fit, PULL_APART_M, PULL_APART_DEG)
         });
         if pulled {
             run.status = dynamic;
@@ -512,10 +512,10 @@ fn again(
     run.result = result;
 }
 
-/// True when `b` lies farther from `a` than `m` metres or `deg` degrees.
-fn apart(a: &Isometry2<f64>, b: &Isometry2<f64>, m: f64, deg: f64) -> bool {
-    let d = a.inverse() * b;
-    d.translation.vector.norm() > m || d.rotation.angle().to_degrees().abs() > deg
+/// True when `b` lies farther from `a` than `m` metres or `deg` degrees ([`apart`]).
+fn beyond(a: &Isometry2<f64>, b: &Isometry2<f64>, m: f64, deg: f64) -> bool {
+    let (apart_m, apart_deg) = apart(a, b);
+    apart_m > m || apart_deg > deg
 }
 
 #[cfg(test)]

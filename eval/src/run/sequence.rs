@@ -42,7 +42,7 @@ use crate::run::lags::LagRuns;
 use crate::run::runner::{PairRun, Runs};
 use crate::run::sequence_setup::SequenceMode;
 use crate::run::setup::EvalSetup;
-use crate::run::status::{PairStatus, CHI2_3_AT_999};
+use crate::run::status::{apart, PairStatus, CHI2_3_AT_999};
 
 /// One row of `sequence.csv`: a scan's fused state as one smoothed estimator has it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -386,7 +386,7 @@ fn contradiction(
     );
     let nees = d.dot(&(info * d));
     (nees > CHI2_3_AT_999).then(|| {
-        let (apart_m, apart_deg) = cycles::apart(&a, &b);
+        let (apart_m, apart_deg) = apart(&a, &b);
         PairStatus::Contradicted {
             apart_m,
             apart_deg,

@@ -9,10 +9,19 @@
 use std::fmt;
 
 use icp_core::global::ambiguity::{Ambiguity, AmbiguityProblem, ScoredPose};
+use icp_core::motion::wrap_deg;
 use icp_core::quality::{DEGENERATE_RATIO, MIN_OVERLAP, OVERLAP_GATE_M};
 use icp_core::{IcpError, Registration};
 use nalgebra::Isometry2;
 use serde::{Deserialize, Serialize};
+
+/// How far apart two estimates of one `t_ref_src` are: translation m, |rotation| degrees.
+pub fn apart(a: &Isometry2<f64>, b: &Isometry2<f64>) -> (f64, f64) {
+    (
+        (a.translation.vector - b.translation.vector).norm(),
+        wrap_deg((a.rotation.angle() - b.rotation.angle()).to_degrees()).abs(),
+    )
+}
 
 /// χ²₃'s 99.9 % point: a 3-vector whose NEES exceeds it is outside what its covariance
 /// allows (a one-in-a-thousand event for an honest one).
