@@ -18,14 +18,14 @@
 //! whose variant's registration was ok but lies outside that registration's covariance is
 //! flagged `contradicted` ([`PairStatus::Contradicted`]): smoothing never clears a flag, and
 //! never hides a disagreement it cannot resolve. The causal estimator uses
-//! the `Qc` the batch one estimated from the whole run (a vessel would carry it over from
-//! earlier data). Smoothing runs where the report is made (`pipeline::report`), so a
+//! the `Qc` and the scans' share of the registrations' errors the batch one estimated from the
+//! whole run (a vessel would carry them over from earlier data). Smoothing runs where the report is made (`pipeline::report`), so a
 //! sharded run smooths at the merge, on the same registrations as a single run.
 
 use datasets::{Dataset, ScanPair};
 use icp_core::motion::{wrap_360, wrap_deg};
 use icp_core::sequence::{
-    self, Mode, ProcessNoise, SequenceRegistration, Smoothed, SmootherOptions,
+    self, Mode, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed, SmootherOptions,
 };
 use icp_core::termination::StopReason;
 use icp_core::BearingSense;
@@ -98,6 +98,13 @@ pub struct SequenceSummary {
     pub qc: Option<[f64; 3]>,
     /// Expectation–maximisation rounds.
     pub em_rounds: usize,
+    /// The share of each registration's covariance given to its scans' errors (shared with
+    /// their other registrations), estimated from the loops the registrations close (the
+    /// batch smoother's; 0 with fewer than 20 loops), and the loops it came from.
+    #[serde(default)]
+    pub scan_share: Option<f64>,
+    #[serde(default)]
+    pub scan_share_loops: usize,
     /// How the solve that gave its estimates stopped (the causal estimator: the worst of its
     /// windows'): `converged`, `no_descent` (no step lowered the cost: a minimum to within
     /// rounding) or `iteration_cap` (the estimates may lie short of their minimum). None when
@@ -211,6 +218,7 @@ fn smooth_variant(
                     Mode::Causal { lag_scans: 0 },
                     &SmootherOptions {
                         process_noise: ProcessNoise::Fixed(b.qc),
+                        scan_errors: ScanErrors::Share(b.scan_share.share),
                         ..options
                     },
                 ),
@@ -228,6 +236,8 @@ fn smooth_variant(
                     left_out_loop_open: left_out.loop_open,
                     qc: batch.as_ref().ok().map(|b| b.qc),
                     em_rounds: batch.as_ref().map_or(0, |b| b.em_iterations),
+                    scan_share: batch.as_ref().ok().map(|b| b.scan_share.share),
+                    scan_share_loops: batch.as_ref().map_or(0, |b| b.scan_share.loops),
                     solve_stop: out.as_ref().ok().map(|s| s.stop.name().to_owned()),
                     heading_from_reference: first_heading_deg(run).is_some(),
                     error: out.as_ref().err().map(|e| e.to_string()),
@@ -531,6 +541,10 @@ mod tests {
             qc: [1.0; 3],
             em_iterations: 0,
             stop: icp_core::sequence::SolveStop::Converged,
+            scan_share: icp_core::sequence::ScanShare {
+                share: 0.0,
+                loops: 0,
+            },
         };
         let cov_of = |_: &PairRun| Some(Matrix3::from_diagonal(&Vector3::new(1e-4, 1e-4, 1e-6)));
         let runs = pair_runs(&pairs, &scans, &own, &Ok(smoothed), &cov_of);

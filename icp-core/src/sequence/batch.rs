@@ -43,8 +43,16 @@ impl SparseSystem {
                 layout.twist(k + 1),
             ]);
         }
+        for k in 0..n_states {
+            add(&[layout.error(k)]);
+        }
         for reg in model.regs {
-            add(&[layout.pose(reg.source), layout.pose(reg.reference)]);
+            add(&[
+                layout.pose(reg.source),
+                layout.error(reg.source),
+                layout.pose(reg.reference),
+                layout.error(reg.reference),
+            ]);
         }
         let mut triplets = Vec::with_capacity(pairs.len() * 9);
         for &(a, b) in &pairs {
@@ -131,6 +139,9 @@ fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &
     for k in 0..est.poses.len() - 1 {
         cost += model.add_prior(est, layout, k, sink);
     }
+    for k in 0..est.poses.len() {
+        cost += model.add_scan_error(est, layout, k, sink);
+    }
     for i in 0..model.regs.len() {
         cost += model.add_reg(est, layout, i, sink);
     }
@@ -184,7 +195,8 @@ pub(crate) struct Marginals {
     pub log_det_h: f64,
 }
 
-/// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero), the
+/// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero; its error,
+/// where the model has them, is marginalised out like every scan's), the
 /// cross-covariance `Σ_k,k+1` of consecutive scans, and `ln det H`: from the band of `H⁻¹`
 /// (see [`Band`]) of the system linearised at the solution.
 pub(crate) fn marginals(
@@ -212,9 +224,9 @@ pub(crate) fn marginals(
     let (sigma, log_det_h) = h.inverse_band()?;
     let block = |a: usize, b: usize| -> Matrix6 {
         let mut out = Matrix6::zeros();
-        for (sa, ba) in layout.state_blocks(a).into_iter().enumerate() {
+        for (sa, ba) in layout.state_blocks(a).into_iter().take(2).enumerate() {
             let Some(ba) = ba else { continue };
-            for (sb, bb) in layout.state_blocks(b).into_iter().enumerate() {
+            for (sb, bb) in layout.state_blocks(b).into_iter().take(2).enumerate() {
                 let Some(bb) = bb else { continue };
                 for r in 0..3 {
                     for c in 0..3 {

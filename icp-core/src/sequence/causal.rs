@@ -65,18 +65,11 @@ impl MarginalPrior {
         let mut delta = DVector::zeros(self.layout.dim());
         for i in 0..len {
             let state = self.first + i;
-            if let Some(b) = self.layout.pose(state) {
-                map[b] = window
-                    .pose(state)
-                    .expect("the window holds the prior's scans");
-                let d = factors::pose_minus(model.geometry, &est.poses[state], &self.at.poses[i]);
-                delta.fixed_rows_mut::<3>(3 * b).copy_from(&d);
-            }
-            if let Some(b) = self.layout.twist(state) {
-                map[b] = window
-                    .twist(state)
-                    .expect("the window holds the prior's scans");
-                let d = est.twists[state] - self.at.twists[i];
+            let in_window = window.state_blocks(state);
+            for (kind, b) in self.layout.state_blocks(state).into_iter().enumerate() {
+                let Some(b) = b else { continue };
+                map[b] = in_window[kind].expect("the window holds the prior's scans");
+                let d = est.minus(model.geometry, kind, state, &self.at, i);
                 delta.fixed_rows_mut::<3>(3 * b).copy_from(&d);
             }
         }
@@ -122,7 +115,7 @@ pub(crate) fn run(
     let mut stop = SolveStop::Converged;
     for k in 1..n {
         predict(model, &mut est, k);
-        let layout = Layout::new(first, k - first + 1);
+        let layout = model.layout(first, k - first + 1);
         let window = Window {
             model,
             layout: &layout,
@@ -218,6 +211,9 @@ impl Window<'_> {
         for j in self.first..self.k {
             cost += model.add_prior(est, layout, j, sink);
         }
+        for j in self.first..=self.k {
+            cost += model.add_scan_error(est, layout, j, sink);
+        }
         for (i, r) in model.regs.iter().enumerate() {
             if r.source >= self.first && r.reference <= self.k {
                 cost += model.add_reg(est, layout, i, sink);
@@ -275,8 +271,8 @@ impl Window<'_> {
     }
 }
 
-/// Replaces the factors on scan `first` (its prior to `first + 1`, its registrations, and the
-/// current marginal) by their marginal on scans `first + 1..=k`.
+/// Replaces the factors on scan `first` (its prior to `first + 1`, its error's, its
+/// registrations, and the current marginal) by their marginal on scans `first + 1..=k`.
 fn marginalise(
     model: &Model<'_>,
     est: &Estimates,
@@ -284,12 +280,13 @@ fn marginalise(
     first: usize,
     k: usize,
 ) -> Result<MarginalPrior, SequenceError> {
-    let layout = Layout::new(first, k - first + 1);
+    let layout = model.layout(first, k - first + 1);
     let mut sys = DenseSystem::zeros(layout.dim());
     if first == 0 {
         model.add_twist0(est, &layout, &mut sys);
     }
     model.add_prior(est, &layout, first, &mut sys);
+    model.add_scan_error(est, &layout, first, &mut sys);
     for (i, r) in model.regs.iter().enumerate() {
         if r.source == first {
             model.add_reg(est, &layout, i, &mut sys);
@@ -311,12 +308,9 @@ fn marginalise(
     let g = sys.g.rows(gone, rest) - h_ss_inv_h_sr.transpose() * sys.g.rows(0, gone);
     let len = k - first;
     Ok(MarginalPrior {
-        layout: Layout::new(first + 1, len),
+        layout: model.layout(first + 1, len),
         first: first + 1,
-        at: Estimates {
-            poses: est.poses[first + 1..=k].to_vec(),
-            twists: est.twists[first + 1..=k].to_vec(),
-        },
+        at: est.slice(first + 1..k + 1),
         h: (&h + h.transpose()) * 0.5,
         g,
     })
@@ -326,9 +320,9 @@ fn marginalise(
 /// window's `cov`.
 fn block(cov: &DMatrix<f64>, layout: &Layout, a: usize, b: usize) -> Matrix6 {
     let mut out = Matrix6::zeros();
-    for (sa, ba) in layout.state_blocks(a).into_iter().enumerate() {
+    for (sa, ba) in layout.state_blocks(a).into_iter().take(2).enumerate() {
         let Some(ba) = ba else { continue };
-        for (sb, bb) in layout.state_blocks(b).into_iter().enumerate() {
+        for (sb, bb) in layout.state_blocks(b).into_iter().take(2).enumerate() {
             let Some(bb) = bb else { continue };
             out.fixed_view_mut::<3, 3>(3 * sa, 3 * sb)
                 .copy_from(&cov.fixed_view::<3, 3>(3 * ba, 3 * bb));

@@ -176,6 +176,29 @@ pub(crate) fn relative(
     (Vector3::new(t.x, t.y, theta), j_src, j_ref)
 }
 
+/// The parameters of `A ∘ B` (first B, then A: `t = t_A + R(θ_A) t_B`, `θ = θ_A + θ_B`) from
+/// those of A (`outer`) and B (`inner`), with its Jacobians against both.
+pub(crate) fn compose(
+    geometry: Geometry,
+    outer: &Vector3<f64>,
+    inner: &Vector3<f64>,
+) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+    let r = rot_t(geometry, outer.z).transpose();
+    let t = Vector2::new(outer.x, outer.y) + r * Vector2::new(inner.x, inner.y);
+    let theta = match geometry {
+        Geometry::Se2 => wrap_rad(outer.z + inner.z),
+        Geometry::Linear => outer.z + inner.z,
+    };
+    let mut j_outer = Matrix3::identity();
+    if geometry == Geometry::Se2 {
+        let lever = s_times(r * Vector2::new(inner.x, inner.y));
+        j_outer.fixed_view_mut::<2, 1>(0, 2).copy_from(&lever);
+    }
+    let mut j_inner = Matrix3::identity();
+    j_inner.fixed_view_mut::<2, 2>(0, 0).copy_from(&r);
+    (Vector3::new(t.x, t.y, theta), j_outer, j_inner)
+}
+
 /// The difference of two parameter vectors of a pose, with its angle wrapped (SE(2)).
 pub(crate) fn pose_minus(geometry: Geometry, a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
     let d = a - b;
@@ -247,6 +270,25 @@ mod tests {
         let n_r = numeric(|x| relative(Geometry::Se2, &a, x).0, &b);
         assert!((j_s - n_s).abs().max() < 1e-8);
         assert!((j_r - n_r).abs().max() < 1e-8);
+    }
+
+    #[test]
+    fn composition_matches_isometries_and_its_jacobians_central_differences() {
+        let a = Vector3::new(0.8, -1.1, 2.6);
+        let b = Vector3::new(-0.4, 0.3, 1.2);
+        let (c, j_a, j_b) = compose(Geometry::Se2, &a, &b);
+        let iso = |p: &Vector3<f64>| nalgebra::Isometry2::new(Vector2::new(p.x, p.y), p.z);
+        let product = iso(&a) * iso(&b);
+        let expected = Vector3::new(
+            product.translation.x,
+            product.translation.y,
+            product.rotation.angle(),
+        );
+        assert!((c - expected).abs().max() < 1e-12, "{c} {expected}");
+        let n_a = numeric(|x| compose(Geometry::Se2, x, &b).0, &a);
+        let n_b = numeric(|x| compose(Geometry::Se2, &a, x).0, &b);
+        assert!((j_a - n_a).abs().max() < 1e-8, "{j_a} {n_a}");
+        assert!((j_b - n_b).abs().max() < 1e-8, "{j_b} {n_b}");
     }
 
     #[test]

@@ -3,16 +3,21 @@
 //!
 //! # Model
 //! The state of scan k is its pose `T_k = t_world_body` as `(x m, y m, θ rad)` (scan 0 is the
-//! identity and fixes the frame) and its body twist `ϖ_k = (surge m/s, sway m/s, yaw rad/s)`.
-//! Two kinds of factor:
+//! identity and fixes the frame), its body twist `ϖ_k = (surge m/s, sway m/s, yaw rad/s)` and
+//! its error `e_k` (below). Three kinds of factor:
 //! - each registration `source → reference` at any lag, whose `t_ref_src` parameters
-//!   `(x, y, θ)` are predicted by `T_reference⁻¹ T_source` (the frames of
-//!   [`crate::motion`]), with the registration's 3×3 covariance, through a Huber loss on the
-//!   Mahalanobis distance (threshold [`SmootherOptions::huber_k`]);
+//!   `(x, y, θ)` are predicted by `(T_reference + e_reference)⁻¹ (T_source + e_source)` (the
+//!   frames of [`crate::motion`]), with its own part of the registration's 3×3 covariance,
+//!   through a Huber loss on the Mahalanobis distance (threshold [`SmootherOptions::huber_k`]);
 //! - between consecutive scans, the white-noise-on-acceleration prior of Barfoot, Tong &
 //!   Särkkä (2014) as in STEAM: `e = [Log(T_k⁻¹T_k+1) − Δt·ϖ_k ; ϖ_k+1 − ϖ_k]` with covariance
 //!   `Q = [[Δt³/3, Δt²/2], [Δt²/2, Δt]] ⊗ Qc`, `Qc = diag(q_surge, q_sway, q_yaw)`, over each
-//!   pair's actual Δt (a missing scan is bridged by a longer Δt, whose Q grows as Δt³).
+//!   pair's actual Δt (a missing scan is bridged by a longer Δt, whose Q grows as Δt³);
+//! - each scan's error (`(x m, y m, θ rad)` beside its pose, zero-mean): what its noise, its
+//!   motion distortion and whatever moved in it do to every registration that uses it, so that
+//!   registrations sharing a scan are correlated as they are; the share of a registration's
+//!   covariance that is its scans' is estimated from the loops the registrations close, and the
+//!   rest is the registration's own (see [`ScanErrors`] and the `scan_errors` module).
 //!
 //! `Qc` is estimated from the data by expectation–maximisation (Wong et al. 2020): smooth,
 //! then set each axis' `q` to the maximum-likelihood value given the expected squared prior
@@ -38,13 +43,15 @@ mod batch;
 mod causal;
 mod factors;
 mod noise;
+mod scan_errors;
 mod system;
 
 use nalgebra::{Cholesky, Isometry2, Matrix3, Vector2, Vector3};
 
 /// The 6×6 covariance of a scan's `[pose; twist]`.
 pub type StateCovariance = nalgebra::SMatrix<f64, 6, 6>;
-use system::{Estimates, Layout, Model, Reg};
+pub use scan_errors::{ScanErrors, ScanShare, MAX_SHARE};
+use system::{Estimates, Model, Reg};
 
 /// Errors of the smoother's input and solve.
 #[derive(Debug, thiserror::Error, Clone, PartialEq)]
@@ -125,6 +132,9 @@ pub struct SmootherOptions {
     /// What is known of scan 0's twist, if anything (a vessel leaving the quay at rest); none
     /// by default.
     pub initial_twist: Option<TwistPrior>,
+    /// How much of a registration's error is its scans', shared with their other
+    /// registrations ([`scan_errors`](ScanErrors)); estimated from the run's loops by default.
+    pub scan_errors: ScanErrors,
 }
 
 /// A Gaussian on scan 0's twist `(surge m/s, sway m/s, yaw rad/s)`.
@@ -147,6 +157,7 @@ impl Default for SmootherOptions {
             max_iterations: 100,
             tolerance: 1e-10,
             initial_twist: None,
+            scan_errors: ScanErrors::Estimate,
         }
     }
 }
@@ -228,6 +239,8 @@ pub struct Smoothed {
     /// How the solve that gave the estimates stopped (the causal mode: the worst of its
     /// windows').
     pub stop: SolveStop,
+    /// The share of the registrations' covariance given to their scans' errors.
+    pub scan_share: ScanShare,
 }
 
 /// Smooths the scans at `times_s` from `registrations` (the unflagged ones) in `mode`.
@@ -248,6 +261,21 @@ pub fn smooth(
         return Err(SequenceError::NoRegistrations);
     }
     let init = initial_estimates(options.geometry, times_s, &regs);
+    let scan_share = scan_errors::share(options.geometry, &regs, options.scan_errors);
+    let errors = (scan_share.share > 0.0).then(|| {
+        let headings_rad: Vec<f64> = init.poses.iter().map(|p| p.z).collect();
+        scan_errors::information(options.geometry, &regs, &headings_rad, scan_share.share)
+    });
+    let own = scan_errors::own_parts(&regs, scan_share.share);
+    let mut model = Model {
+        geometry: options.geometry,
+        times_s,
+        regs: &own,
+        qc: [1.0; 3],
+        huber_k: options.huber_k,
+        twist0: twist0(options)?,
+        scan_errors: errors.as_deref(),
+    };
     let (qc, em_iterations) = match options.process_noise {
         ProcessNoise::Fixed(qc) => (qc, 0),
         ProcessNoise::Estimate {
@@ -256,8 +284,7 @@ pub fn smooth(
             likelihood_tolerance,
         } => noise::estimate(
             options,
-            times_s,
-            &regs,
+            &model,
             init.clone(),
             noise::initial_qc(options.geometry, times_s, &regs),
             &noise::EmStop {
@@ -267,14 +294,7 @@ pub fn smooth(
             },
         )?,
     };
-    let model = Model {
-        geometry: options.geometry,
-        times_s,
-        regs: &regs,
-        qc,
-        huber_k: options.huber_k,
-        twist0: twist0(options)?,
-    };
+    model.qc = qc;
     let ((scans, steps), stop) = match mode {
         Mode::Batch => {
             let (est, m, stop) = noise::batch_with_marginals(&model, init, options)?;
@@ -288,6 +308,7 @@ pub fn smooth(
         qc,
         em_iterations,
         stop,
+        scan_share,
     })
 }
 
@@ -317,6 +338,11 @@ fn validate_options(o: &SmootherOptions) -> Result<(), SequenceError> {
     }
     if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
         return bad("tolerance", "must be finite and positive");
+    }
+    if let ScanErrors::Share(share) = o.scan_errors {
+        if !(0.0..=MAX_SHARE).contains(&share) {
+            return bad("scan_errors", "the share must lie in [0, MAX_SHARE]");
+        }
     }
     match o.process_noise {
         ProcessNoise::Fixed(qc) if qc.iter().any(|q| !(q.is_finite() && *q > 0.0)) => {
@@ -361,6 +387,7 @@ fn to_reg(index: usize, r: &SequenceRegistration, n: usize) -> Result<Reg, Seque
         reference: r.reference,
         z,
         info: chol.inverse(),
+        cov: sym,
     })
 }
 
@@ -421,7 +448,11 @@ fn initial_estimates(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> Estim
         twists[k] = xi / dt;
     }
     twists[n - 1] = twists[n - 2];
-    Estimates { poses, twists }
+    Estimates {
+        poses,
+        twists,
+        errors: vec![Vector3::zeros(); n],
+    }
 }
 
 /// The constant body twist (times Δt) that moves the origin onto the pose `p`.
@@ -481,11 +512,6 @@ fn step(
     }
 }
 
-/// Layout of every scan of a run.
-fn full_layout(n_states: usize) -> Layout {
-    Layout::new(0, n_states)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -499,6 +525,7 @@ mod tests {
                 reference: b,
                 z: factors::relative(Geometry::Se2, &poses[a], &poses[b]).0,
                 info: Matrix3::identity(),
+                cov: Matrix3::identity(),
             })
             .collect()
     }

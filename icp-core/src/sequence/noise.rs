@@ -7,7 +7,7 @@ use nalgebra::SMatrix;
 use super::batch::{self, Marginals, SparseSystem};
 use super::factors::{self, Matrix6};
 use super::system::{Estimates, Layout, Model, Reg};
-use super::{full_layout, Geometry, SequenceError, SmootherOptions, SolveStop};
+use super::{Geometry, SequenceError, SmootherOptions, SolveStop};
 
 /// Smallest `q` an axis may take, so that `Q` stays invertible when an axis does not move.
 const Q_FLOOR: f64 = 1e-12;
@@ -19,7 +19,7 @@ pub(crate) fn batch_with_marginals(
     est: Estimates,
     options: &SmootherOptions,
 ) -> Result<(Estimates, Marginals, SolveStop), SequenceError> {
-    let layout = full_layout(est.poses.len());
+    let layout = model.layout(0, est.poses.len());
     let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
     let (est, marginals, (_, stop)) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
     Ok((est, marginals, stop))
@@ -97,21 +97,19 @@ pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [
 /// returns `Qc` and the EM rounds taken.
 pub(crate) fn estimate(
     options: &SmootherOptions,
-    times_s: &[f64],
-    regs: &[Reg],
+    base: &Model<'_>,
     est: Estimates,
     qc0: [f64; 3],
     stop: &EmStop,
 ) -> Result<([f64; 3], usize), SequenceError> {
+    let times_s = base.times_s;
     let mut em = Em {
         options,
-        times_s,
-        regs,
-        layout: full_layout(times_s.len()),
+        base: base.clone(),
+        layout: base.layout(0, times_s.len()),
         sys: None,
         est,
         rounds: 0,
-        twist0: super::twist0(options)?,
     };
     let tolerance = stop.tolerance;
     let settled =
@@ -168,17 +166,15 @@ pub(crate) struct EmStop {
     pub likelihood_tolerance: f64,
 }
 
-/// The state of an estimation: the system (laid out, and symbolically factorised, once) and
-/// the estimates each round starts from.
+/// The state of an estimation: the model (whose `Qc` each round sets), the system (laid out,
+/// and symbolically factorised, once) and the estimates each round starts from.
 struct Em<'a> {
     options: &'a SmootherOptions,
-    times_s: &'a [f64],
-    regs: &'a [Reg],
+    base: Model<'a>,
     layout: Layout,
     sys: Option<SparseSystem>,
     est: Estimates,
     rounds: usize,
-    twist0: Option<super::system::Gaussian3>,
 }
 
 impl Em<'_> {
@@ -186,22 +182,19 @@ impl Em<'_> {
     /// of `qc` ([`log_evidence`]).
     fn round(&mut self, qc: [f64; 3]) -> Result<([f64; 3], f64), SequenceError> {
         let model = Model {
-            geometry: self.options.geometry,
-            times_s: self.times_s,
-            regs: self.regs,
             qc,
-            huber_k: self.options.huber_k,
-            twist0: self.twist0,
+            ..self.base.clone()
         };
+        let n = model.times_s.len();
         let sys = match &mut self.sys {
             Some(sys) => sys,
-            none => none.insert(SparseSystem::new(&model, &self.layout, self.times_s.len())?),
+            none => none.insert(SparseSystem::new(&model, &self.layout, n)?),
         };
         // From the last round's solution, kept should this one fail.
         let (smoothed, marginals, (cost, _)) =
             solve_with_marginals(&model, self.est.clone(), sys, &self.layout, self.options)?;
         let next = m_step(&model, &smoothed, &marginals.own, &marginals.cross);
-        let evidence = log_evidence(&qc, self.times_s.len() - 1, cost, marginals.log_det_h);
+        let evidence = log_evidence(&qc, n - 1, cost, marginals.log_det_h);
         self.est = smoothed;
         self.rounds += 1;
         Ok((next, evidence))

@@ -10,50 +10,108 @@ use super::{Geometry, SolveStop};
 /// A 3-vector's mean and information.
 pub(crate) type Gaussian3 = (Vector3<f64>, Matrix3<f64>);
 
-/// A registration in the smoother: `t_ref_src` parameters `z` of `source → reference` and the
-/// information (inverse covariance) of `z`.
+/// A registration in the smoother: `t_ref_src` parameters `z` of `source → reference`, the
+/// information its factor weighs it by (the inverse of its covariance, or of its own part of
+/// it under scan errors) and its covariance as given.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Reg {
     pub source: usize,
     pub reference: usize,
     pub z: Vector3<f64>,
     pub info: Matrix3<f64>,
+    /// The covariance of `z` as given (all of its error, its scans' share included).
+    pub cov: Matrix3<f64>,
 }
 
-/// Every scan's pose `(x m, y m, θ rad)` and body twist `(surge m/s, sway m/s, yaw rad/s)`.
+/// Every scan's pose `(x m, y m, θ rad)`, body twist `(surge m/s, sway m/s, yaw rad/s)` and
+/// error `(x m, y m, θ rad)`: where the scan's own errors put it beside its pose, as every
+/// registration that uses the scan sees it (zero when the model has no scan errors, see
+/// [`super::ScanErrors`]).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Estimates {
     pub poses: Vec<Vector3<f64>>,
     pub twists: Vec<Vector3<f64>>,
+    pub errors: Vec<Vector3<f64>>,
 }
 
-/// The free 3-vectors (blocks) of the states `first..first + len`: a pose and a twist each, but
-/// scan 0's pose, which fixes the frame (the identity), is not free.
+impl Estimates {
+    /// The 3-vector of `kind` ([`POSE`], [`TWIST`] or [`ERROR`]) of `state`.
+    pub fn get(&self, kind: usize, state: usize) -> &Vector3<f64> {
+        match kind {
+            POSE => &self.poses[state],
+            TWIST => &self.twists[state],
+            _ => &self.errors[state],
+        }
+    }
+
+    fn get_mut(&mut self, kind: usize, state: usize) -> &mut Vector3<f64> {
+        match kind {
+            POSE => &mut self.poses[state],
+            TWIST => &mut self.twists[state],
+            _ => &mut self.errors[state],
+        }
+    }
+
+    /// The states `range`, as estimates of their own.
+    pub fn slice(&self, range: std::ops::Range<usize>) -> Self {
+        Self {
+            poses: self.poses[range.clone()].to_vec(),
+            twists: self.twists[range.clone()].to_vec(),
+            errors: self.errors[range].to_vec(),
+        }
+    }
+
+    /// `self − other` for the 3-vector of `kind` of `state` in `self` and `at` in `other`
+    /// (a pose's angle wrapped).
+    pub fn minus(
+        &self,
+        geometry: Geometry,
+        kind: usize,
+        state: usize,
+        other: &Self,
+        at: usize,
+    ) -> Vector3<f64> {
+        let (a, b) = (self.get(kind, state), other.get(kind, at));
+        if kind == POSE {
+            factors::pose_minus(geometry, a, b)
+        } else {
+            a - b
+        }
+    }
+}
+
+/// A state's pose, in [`Layout::state_blocks`] and [`Estimates::get`].
+pub(crate) const POSE: usize = 0;
+/// A state's twist.
+pub(crate) const TWIST: usize = 1;
+/// A state's error.
+pub(crate) const ERROR: usize = 2;
+
+/// The free 3-vectors (blocks) of the states `first..first + len`: a pose, a twist and, where
+/// the model has them, an error each, in that order, state by state; scan 0's pose, which
+/// fixes the frame (the identity), is not free.
 #[derive(Clone, Debug)]
 pub(crate) struct Layout {
     first: usize,
-    pose: Vec<Option<usize>>,
-    twist: Vec<usize>,
+    blocks_of: Vec<[Option<usize>; 3]>,
     blocks: usize,
 }
 
 impl Layout {
-    pub fn new(first: usize, len: usize) -> Self {
+    pub fn new(first: usize, len: usize, errors: bool) -> Self {
         let mut blocks = 0;
-        let mut pose = Vec::with_capacity(len);
-        let mut twist = Vec::with_capacity(len);
-        for state in first..first + len {
-            pose.push((state != 0).then(|| {
+        let mut next = |free: bool| {
+            free.then(|| {
                 blocks += 1;
                 blocks - 1
-            }));
-            twist.push(blocks);
-            blocks += 1;
-        }
+            })
+        };
+        let blocks_of = (first..first + len)
+            .map(|state| [next(state != 0), next(true), next(errors)])
+            .collect();
         Self {
             first,
-            pose,
-            twist,
+            blocks_of,
             blocks,
         }
     }
@@ -64,47 +122,59 @@ impl Layout {
     }
 
     pub fn contains(&self, state: usize) -> bool {
-        state >= self.first && state < self.first + self.twist.len()
+        state >= self.first && state < self.first + self.blocks_of.len()
+    }
+
+    /// The blocks of `state` in `[pose, twist, error]` order (`None` where not free or not in
+    /// the layout).
+    pub fn state_blocks(&self, state: usize) -> [Option<usize>; 3] {
+        if self.contains(state) {
+            self.blocks_of[state - self.first]
+        } else {
+            [None; 3]
+        }
     }
 
     /// The block of `state`'s pose, if free and in the layout.
     pub fn pose(&self, state: usize) -> Option<usize> {
-        self.contains(state)
-            .then(|| self.pose[state - self.first])
-            .flatten()
+        self.state_blocks(state)[POSE]
     }
 
     /// The block of `state`'s twist, if in the layout.
     pub fn twist(&self, state: usize) -> Option<usize> {
-        self.contains(state).then(|| self.twist[state - self.first])
+        self.state_blocks(state)[TWIST]
     }
 
-    /// The blocks of `state` in `[pose, twist]` order (`None` where not free).
-    pub fn state_blocks(&self, state: usize) -> [Option<usize>; 2] {
-        [self.pose(state), self.twist(state)]
+    /// The block of `state`'s error, if the model has them and the state is in the layout.
+    pub fn error(&self, state: usize) -> Option<usize> {
+        self.state_blocks(state)[ERROR]
+    }
+
+    fn states(&self) -> std::ops::Range<usize> {
+        self.first..self.first + self.blocks_of.len()
     }
 
     /// Applies the step `delta` (in this layout) times `scale` to `est`.
     pub fn apply(&self, geometry: Geometry, est: &mut Estimates, delta: &[f64], scale: f64) {
         let at = |b: usize| Vector3::new(delta[3 * b], delta[3 * b + 1], delta[3 * b + 2]) * scale;
-        for (i, state) in (self.first..self.first + self.twist.len()).enumerate() {
-            if let Some(b) = self.pose[i] {
-                let d = at(b);
-                let p = est.poses[state] + d;
-                est.poses[state] = match geometry {
-                    Geometry::Se2 => Vector3::new(p.x, p.y, factors::wrap_rad(p.z)),
-                    Geometry::Linear => p,
-                };
+        for (state, blocks) in self.states().zip(&self.blocks_of) {
+            for (kind, b) in blocks.iter().enumerate() {
+                let Some(b) = *b else { continue };
+                let v = est.get_mut(kind, state);
+                *v += at(b);
+                if kind == POSE && geometry == Geometry::Se2 {
+                    v.z = factors::wrap_rad(v.z);
+                }
             }
-            est.twists[state] += at(self.twist[i]);
         }
     }
 
     /// Copies the states of this layout from `from` into `to`.
     pub fn copy(&self, from: &Estimates, to: &mut Estimates) {
-        let states = self.first..self.first + self.twist.len();
+        let states = self.states();
         to.poses[states.clone()].copy_from_slice(&from.poses[states.clone()]);
-        to.twists[states.clone()].copy_from_slice(&from.twists[states]);
+        to.twists[states.clone()].copy_from_slice(&from.twists[states.clone()]);
+        to.errors[states.clone()].copy_from_slice(&from.errors[states]);
     }
 }
 
@@ -197,9 +267,18 @@ pub(crate) struct Model<'a> {
     pub huber_k: f64,
     /// Scan 0's twist: mean and information, if known.
     pub twist0: Option<Gaussian3>,
+    /// The information of each scan's error, zero-mean (world frame), where the model has
+    /// scan errors; the registrations' `info` is then that of their own, independent part
+    /// (see [`super::ScanErrors`]).
+    pub scan_errors: Option<&'a [Matrix3<f64>]>,
 }
 
 impl Model<'_> {
+    /// The layout of the states `first..first + len` under this model.
+    pub fn layout(&self, first: usize, len: usize) -> Layout {
+        Layout::new(first, len, self.scan_errors.is_some())
+    }
+
     pub fn dt_s(&self, k: usize) -> f64 {
         self.times_s[k + 1] - self.times_s[k]
     }
@@ -245,7 +324,32 @@ impl Model<'_> {
         0.5 * r.dot(&(info * r))
     }
 
+    /// Linearises the zero-mean prior on scan `k`'s error, if the model has scan errors, into
+    /// `sink`; returns its cost.
+    pub fn add_scan_error<S: Sink>(
+        &self,
+        est: &Estimates,
+        layout: &Layout,
+        k: usize,
+        sink: &mut S,
+    ) -> f64 {
+        let Some(infos) = self.scan_errors else {
+            return 0.0;
+        };
+        let r = est.errors[k];
+        accumulate(
+            sink,
+            &[(layout.error(k), Matrix3::identity())],
+            &r,
+            &infos[k],
+        );
+        0.5 * r.dot(&(infos[k] * r))
+    }
+
     /// Linearises registration `i` (Huber-weighted, IRLS) into `sink`; returns its robust cost.
+    /// It is predicted between its scans as their errors place them (pose plus error; the
+    /// errors are zero without scan errors), so the part of its error its scans share with
+    /// their other registrations is theirs, and only its own part is weighed here.
     pub fn add_reg<S: Sink>(
         &self,
         est: &Estimates,
@@ -254,17 +358,17 @@ impl Model<'_> {
         sink: &mut S,
     ) -> f64 {
         let reg = &self.regs[i];
-        let (pred, j_src, j_ref) = factors::relative(
-            self.geometry,
-            &est.poses[reg.source],
-            &est.poses[reg.reference],
-        );
+        let seen = |k: usize| est.poses[k] + est.errors[k];
+        let (pred, j_src, j_ref) =
+            factors::relative(self.geometry, &seen(reg.source), &seen(reg.reference));
         let r = factors::pose_minus(self.geometry, &pred, &reg.z);
         let d = r.dot(&(reg.info * r)).max(0.0).sqrt();
         let w = factors::huber_weight(d, self.huber_k);
         let blocks = [
             (layout.pose(reg.source), j_src),
+            (layout.error(reg.source), j_src),
             (layout.pose(reg.reference), j_ref),
+            (layout.error(reg.reference), j_ref),
         ];
         accumulate(sink, &blocks, &r, &(reg.info * w));
         if d <= self.huber_k {
@@ -283,13 +387,14 @@ mod tests {
         Estimates {
             poses: vec![Vector3::zeros(); n],
             twists: vec![Vector3::zeros(); n],
+            errors: vec![Vector3::zeros(); n],
         }
     }
 
     #[test]
     fn a_step_is_halved_until_the_cost_does_not_rise_and_refused_when_it_always_does() {
         // One free twist (scan 0's pose fixes the frame): cost (u − 1)² along surge.
-        let layout = Layout::new(0, 1);
+        let layout = Layout::new(0, 1, false);
         let cost = |e: &Estimates| (e.twists[0].x - 1.0).powi(2);
         let (mut est, mut trial) = (states(1), states(1));
         // From u = 0 (cost 1) a step to u = 6 overshoots (25), so does u = 3 (4); halved
