@@ -71,6 +71,11 @@ fn summary_without_timing(text: &str) -> serde_json::Value {
     if let Some(search) = json["global_search"].as_object_mut() {
         assert!(search.remove("timing").is_some());
     }
+    if let Some(sequence) = json["sequence"].as_array_mut() {
+        for s in sequence {
+            assert!(s.as_object_mut().unwrap().remove("time_ms").is_some());
+        }
+    }
     assert!(json
         .as_object_mut()
         .unwrap()

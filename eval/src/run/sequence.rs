@@ -33,6 +33,7 @@ use icp_core::{Covariance, IcpError, Registration};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
+use std::time::Instant;
 
 use crate::data;
 use crate::measure::cycles;
@@ -111,6 +112,10 @@ pub struct SequenceSummary {
     /// it gave nothing.
     #[serde(default)]
     pub solve_stop: Option<String>,
+    /// Wall time of its smoothing, ms: the batch estimator's with the estimation of `Qc` and
+    /// of the scans' share, the causal one's own pass (it takes those from the batch one).
+    #[serde(default)]
+    pub time_ms: Option<f64>,
     /// Whether `sequence.csv`'s headings and courses start from the reference's heading at the
     /// first scan (else from 0: the first scan's heading, not a true one).
     #[serde(default)]
@@ -203,13 +208,16 @@ fn smooth_variant(
     cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> Vec<Estimator> {
     let options = SmootherOptions::default();
+    let started = Instant::now();
     let batch = sequence::smooth(run.times, regs, Mode::Batch, &options);
+    let batch_ms = started.elapsed().as_secs_f64() * 1e3;
     setup
         .sequence
         .modes()
         .iter()
         .map(|&mode| {
             let name = format!("{}{}", setup.variants[v].name(), mode.suffix());
+            let started = Instant::now();
             let out = match (mode, &batch) {
                 (SequenceMode::Batch, _) | (_, Err(_)) => batch.clone(),
                 (SequenceMode::Causal, Ok(b)) => sequence::smooth(
@@ -222,6 +230,10 @@ fn smooth_variant(
                         ..options
                     },
                 ),
+            };
+            let time_ms = match mode {
+                SequenceMode::Batch => batch_ms,
+                SequenceMode::Causal => started.elapsed().as_secs_f64() * 1e3,
             };
             Estimator {
                 runs: pair_runs(run.pairs, run.scans, own, &out, cov_of),
@@ -239,6 +251,7 @@ fn smooth_variant(
                     scan_share: batch.as_ref().ok().map(|b| b.scan_share.share),
                     scan_share_loops: batch.as_ref().map_or(0, |b| b.scan_share.loops),
                     solve_stop: out.as_ref().ok().map(|s| s.stop.name().to_owned()),
+                    time_ms: Some(time_ms),
                     heading_from_reference: first_heading_deg(run).is_some(),
                     error: out.as_ref().err().map(|e| e.to_string()),
                 },

@@ -42,53 +42,72 @@ impl Band {
 
     /// The band of the inverse of this positive-definite matrix, and the natural logarithm of
     /// its determinant (`2 Σ ln L_jj`, from the same factor).
+    ///
+    /// Both passes read and write whole columns of the band (contiguous in memory): the factor
+    /// by outer products (column j scaled, then the window of the b columns after it updated),
+    /// the recursion as `Σ(j+1.., j) = −W l / L_jj` with `l = L(j+1.., j)` and W the window of
+    /// `Σ` after j, already known. Reading entry by entry through [`Band::at`] took 57 % of the
+    /// estimation of `Qc` on the harbour's size once each scan had an error state (bandwidth
+    /// 35).
     pub fn inverse_band(&self) -> Result<(Band, f64), SequenceError> {
         let (n, b) = (self.n, self.b);
+        let w = b + 1;
         let fail = SequenceError::Factorisation {
             what: "band marginals",
         };
-        // Band Cholesky, in place on a copy: l(i, j) for j ≤ i ≤ j + b.
-        let mut l = Band {
-            n,
-            b,
-            vals: self.vals.clone(),
-        };
+        // Band Cholesky in place on a copy, right-looking: l[j * w + (i − j)] = L(i, j).
+        let mut l = self.vals.clone();
         for j in 0..n {
-            let mut d = l.at(j, j);
-            for k in j.saturating_sub(b)..j {
-                let v = l.at(j, k);
-                d -= v * v;
-            }
+            let d = l[j * w];
             if !(d > 0.0 && d.is_finite()) {
                 return Err(fail);
             }
             let d = d.sqrt();
-            l.set(j, j, d);
-            for i in j + 1..(j + b + 1).min(n) {
-                let mut v = l.at(i, j);
-                for k in i.saturating_sub(b)..j {
-                    v -= l.at(i, k) * l.at(j, k);
+            let len = (b + 1).min(n - j);
+            let (head, tail) = l.split_at_mut((j + 1) * w);
+            let col = &mut head[j * w..j * w + len];
+            col[0] = d;
+            for v in &mut col[1..] {
+                *v /= d;
+            }
+            // A(i, k) −= L(i, j) L(k, j) for j < k ≤ i ≤ j + b: column k of the window.
+            for k in 1..len {
+                let lkj = col[k];
+                let ck = &mut tail[(k - 1) * w..(k - 1) * w + (len - k)];
+                for (a, lij) in ck.iter_mut().zip(&col[k..len]) {
+                    *a -= lij * lkj;
                 }
-                l.set(i, j, v / d);
             }
         }
-        // `l.at(i, j)` for i < j would read the lower entry back: use `lower` to be explicit.
-        let lower = |i: usize, j: usize| if i >= j { l.at(i, j) } else { 0.0 };
-        let log_det = 2.0 * (0..n).map(|j| lower(j, j).ln()).sum::<f64>();
-        let mut s = Band::zeros(n, b);
+        let log_det = 2.0 * (0..n).map(|j| l[j * w].ln()).sum::<f64>();
+        // Takahashi's recursion, from the last column down.
+        let mut s = vec![0.0; n * w];
+        let mut v = vec![0.0; b];
         for j in (0..n).rev() {
-            let ljj = lower(j, j);
-            let end = (j + b + 1).min(n);
-            for i in (j..end).rev() {
-                let mut acc = 0.0;
-                for k in j + 1..end {
-                    acc += lower(k, j) * s.at(i, k);
+            let ljj = l[j * w];
+            let len = (b + 1).min(n - j);
+            let lcol = &l[j * w + 1..j * w + len];
+            // v = W l over the window j+1..j+len−1 (symmetric, its lower band stored by column).
+            let v = &mut v[..len - 1];
+            v.fill(0.0);
+            for k in 0..len - 1 {
+                let col = &s[(j + 1 + k) * w..(j + 1 + k) * w + (len - 1 - k)];
+                let lk = lcol[k];
+                v[k] += col[0] * lk;
+                for (off, sik) in col.iter().enumerate().skip(1) {
+                    v[k + off] += sik * lk;
+                    v[k] += sik * lcol[k + off];
                 }
-                let delta = if i == j { 1.0 / ljj } else { 0.0 };
-                s.set(i, j, (delta - acc) / ljj);
             }
+            let out = &mut s[j * w..j * w + len];
+            let mut dot = 0.0;
+            for (k, vk) in v.iter().enumerate() {
+                out[k + 1] = -vk / ljj;
+                dot += lcol[k] * out[k + 1];
+            }
+            out[0] = (1.0 / ljj - dot) / ljj;
         }
-        Ok((s, log_det))
+        Ok((Band { n, b, vals: s }, log_det))
     }
 }
 

@@ -262,7 +262,8 @@ impl Window<'_> {
                 cost,
                 cost_at,
             );
-            if let Some(how) = stopped(taken, delta.as_slice(), options.tolerance) {
+            let decrement = -sys.g.dot(&delta);
+            if let Some(how) = stopped(taken, decrement, options.tolerance) {
                 stop = how;
                 break;
             }

@@ -94,14 +94,15 @@ pub(crate) fn initial_qc(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> [
 /// Stops when a round moves no axis by more than `tolerance` (relative), when an EM round
 /// raises the log-likelihood by at most `likelihood_tolerance` nats per scan (and not below 0) (an axis heading
 /// for 0 never settles in `q`, but the likelihood does), or after `max_rounds` EM rounds;
-/// returns `Qc` and the EM rounds taken.
+/// returns `Qc`, the EM rounds taken and the last round's solution (a start for the solve at
+/// the returned `Qc`, close to its minimum).
 pub(crate) fn estimate(
     options: &SmootherOptions,
     base: &Model<'_>,
     est: Estimates,
     qc0: [f64; 3],
     stop: &EmStop,
-) -> Result<([f64; 3], usize), SequenceError> {
+) -> Result<([f64; 3], usize, Estimates), SequenceError> {
     let times_s = base.times_s;
     let mut em = Em {
         options,
@@ -123,11 +124,11 @@ pub(crate) fn estimate(
     while em.rounds < stop.max_rounds {
         let (q1, e0) = em.round(q0)?;
         if settled(&q1, &q0) || em.rounds + 2 > stop.max_rounds {
-            return Ok((q1, em.rounds));
+            return Ok((q1, em.rounds, em.est));
         }
         let (q2, e1) = em.round(q1)?;
         if settled(&q2, &q1) || flat(e0, e1) {
-            return Ok((q2, em.rounds));
+            return Ok((q2, em.rounds, em.est));
         }
         let (l0, l1, l2) = (q0.map(f64::ln), q1.map(f64::ln), q2.map(f64::ln));
         let jump: [f64; 3] = std::array::from_fn(|a| {
@@ -149,14 +150,14 @@ pub(crate) fn estimate(
         match em.round(jump) {
             Ok((q3, e_jump)) if e_jump >= e1 => {
                 if settled(&q3, &q2) {
-                    return Ok((q3, em.rounds));
+                    return Ok((q3, em.rounds, em.est));
                 }
                 q0 = q3;
             }
             _ => q0 = q2,
         }
     }
-    Ok((q0, em.rounds))
+    Ok((q0, em.rounds, em.est))
 }
 
 /// When the estimation of `Qc` stops (see [`estimate`]).

@@ -178,11 +178,12 @@ impl Layout {
     }
 }
 
-/// What a step [`descend`] took (`taken`, for the Gauss–Newton step `delta`) says of the
-/// solve: `None` while it goes on, else how it stopped.
-pub(crate) fn stopped(taken: Option<f64>, delta: &[f64], tolerance: f64) -> Option<SolveStop> {
+/// What a step [`descend`] took (`taken`) says of the solve, for a Gauss–Newton step `δ` of
+/// Newton decrement `decrement` (`δᵀHδ = −gᵀδ`: its squared length in the estimate's own σ):
+/// `None` while it goes on, else how it stopped.
+pub(crate) fn stopped(taken: Option<f64>, decrement: f64, tolerance: f64) -> Option<SolveStop> {
     match taken {
-        Some(scale) if delta.iter().any(|d| (d * scale).abs() > tolerance) => None,
+        Some(_) if decrement > tolerance => None,
         Some(_) => Some(SolveStop::Converged),
         None => Some(SolveStop::NoDescent),
     }
