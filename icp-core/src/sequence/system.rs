@@ -87,9 +87,9 @@ pub(crate) const TWIST: usize = 1;
 /// A state's error.
 pub(crate) const ERROR: usize = 2;
 
-/// The free 3-vectors (blocks) of the states `first..first + len`: a pose, a twist and, where
-/// the model has them, an error each, in that order, state by state; scan 0's pose, which
-/// fixes the frame (the identity), is not free.
+/// The free 3-vectors (blocks) of the states `first..first + len`: where the model has them an
+/// error, then a pose and a twist each, state by state; scan 0's pose, which fixes the frame
+/// (the identity), is not free.
 #[derive(Clone, Debug)]
 pub(crate) struct Layout {
     first: usize,
@@ -106,8 +106,15 @@ impl Layout {
                 blocks - 1
             })
         };
+        // Error first: a registration ties a scan's pose and error to those of a scan up to L
+        // later, so the band of H spans 3L + 1 blocks this way against 3L + 2 with the error
+        // last (35 → 32 scalars at L = 3; the marginals cost the band's width squared).
         let blocks_of = (first..first + len)
-            .map(|state| [next(state != 0), next(true), next(errors)])
+            .map(|state| {
+                let error = next(errors);
+                let pose = next(state != 0);
+                [pose, next(true), error]
+            })
             .collect();
         Self {
             first,
