@@ -34,7 +34,7 @@ use indicatif::ProgressBar;
 use nalgebra::Matrix3;
 use rayon::prelude::*;
 
-pub use again::register_again;
+pub use again::{register_again, Made};
 
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
@@ -101,7 +101,10 @@ pub fn apply(
     plan: &RunPlan<'_>,
 ) {
     let registrars = methods.registrars;
+    let images = images(ds, pairs, registrars);
     let mut placed = vec![None; registrars.len()];
+    // A twin's pairs that its chain registered again with the detections it gets now.
+    let mut made: Vec<Option<Made>> = vec![None; registrars.len()];
     let mut unjudged: Vec<BTreeMap<usize, PairStatus>> = vec![BTreeMap::new(); registrars.len()];
     for (spec, chain, users) in placement_chains(registrars) {
         let twin = registrars.iter().enumerate().position(|(v, r)| {
@@ -130,7 +133,8 @@ pub fn apply(
                 &ProgressBar::hidden(),
             ),
         };
-        let mut last = rounds(ds, pairs, &chain, &mut chain_runs).pop().flatten();
+        let (mut last, once) = rounds(ds, pairs, &images, &chain, &mut chain_runs);
+        let mut last = last.pop().flatten();
         if let Some(last) = last.as_mut() {
             // Each scan's share of the chain's work: its pair's registrations and detections.
             for (pair, run) in pairs.iter().zip(&chain_runs.per_variant[0]) {
@@ -144,19 +148,26 @@ pub fn apply(
             placed[v].clone_from(&last);
             unjudged[v].clone_from(&isolated);
         }
+        if let (Some(v), Some(Some(detections))) = (twin, once.into_iter().next()) {
+            // The chain's runs are the twin's first results registered again once.
+            made[v] = Some(Made {
+                detections,
+                runs: chain_runs.per_variant.swap_remove(0),
+            });
+        }
     }
-    let mut found = rounds(ds, pairs, registrars, runs);
+    let (mut found, _) = rounds(ds, pairs, &images, registrars, runs);
     for (f, p) in found.iter_mut().zip(placed) {
         if p.is_some() {
             *f = p;
         }
     }
-    register_again(ds, pairs, registrars, &found, runs);
+    register_again(ds, pairs, registrars, &found, &made, runs);
     let unjudged = confirmed(pairs, unjudged, runs);
     flag_isolated(pairs, &unjudged, runs);
     if let Some(lagged) = lagged {
         let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
-        register_again(ds, &lag_pairs, registrars, &found, &mut lagged.runs);
+        register_again(ds, &lag_pairs, registrars, &found, &[], &mut lagged.runs);
     }
 }
 
@@ -274,15 +285,18 @@ fn registers_as(spec: &VariantSpec, chain: &VariantSpec) -> bool {
 }
 
 /// The rounds of the detectors of `registrars` that place their neighbours by the variant's
-/// own registrations `runs` of `pairs`: each round detects from the results of the round
-/// before and registers the consecutive pairs again; per registrar, the last round's
-/// detections (`None` without such a detector).
+/// own registrations `runs` of `pairs` (the scans' range `images`): each round detects from
+/// the results of the round before and registers the consecutive pairs again. Per
+/// registrar, the last round's detections (`None` without such a detector), and those its
+/// `runs` were registered again with where that was once (`None`: never, or more than once,
+/// each time from the last).
 fn rounds(
     ds: &Dataset,
     pairs: &[ScanPair],
+    images: &BTreeMap<usize, RangeImage>,
     registrars: &[Box<dyn Registrar>],
     runs: &mut Runs,
-) -> Vec<Option<Detections>> {
+) -> (Vec<Option<Detections>>, Vec<Option<Detections>>) {
     let own = |r: &dyn Registrar| {
         r.moving()
             .filter(|m| m.placement() == Placement::Own)
@@ -294,49 +308,75 @@ fn rounds(
         .max()
         .unwrap_or(0);
     let mut last: Vec<Option<Detections>> = vec![None; registrars.len()];
+    let mut registered: Vec<(usize, Option<Detections>)> = vec![(0, None); registrars.len()];
     for round in 0..rounds {
-        let detections = detect(ds, pairs, registrars, runs, round);
+        let detections = detect(ds, pairs, images, registrars, runs, round);
         // The last round's registrations are made by the caller, with the lag pairs'.
         let later: Vec<Option<Detections>> = detections
             .iter()
             .zip(registrars)
             .map(|(d, r)| d.clone().filter(|_| own(r.as_ref()) > round + 1))
             .collect();
-        register_again(ds, pairs, registrars, &later, runs);
+        register_again(ds, pairs, registrars, &later, &[], runs);
+        for ((times, with), d) in registered.iter_mut().zip(&later) {
+            if d.is_some() {
+                *times += 1;
+                with.clone_from(d);
+            }
+        }
         for (l, d) in last.iter_mut().zip(detections) {
             if d.is_some() {
                 *l = d;
             }
         }
     }
-    last
+    let once = registered
+        .into_iter()
+        .map(|(times, with)| with.filter(|_| times == 1))
+        .collect();
+    (last, once)
 }
 
 /// Per scan, a variant's detection, and its wall time, µs.
 pub type Detections = BTreeMap<usize, (Detection, f64)>;
 
-/// Per registrar (in order), its detections in the scans of `pairs` from its registrations
-/// `runs` of them (`None`: the registrar has no detector, or one of no more than `round`
-/// rounds).
+/// The range images of the scans of `pairs` where one of `registrars` detects (none
+/// otherwise), made once per run: every round and every chain asks the same scans, and an
+/// image keeps the window minima its first detection made.
+fn images(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+) -> BTreeMap<usize, RangeImage> {
+    if !registrars.iter().any(|r| r.moving().is_some()) {
+        return BTreeMap::new();
+    }
+    scans(pairs)
+        .par_iter()
+        .map(|&k| (k, RangeImage::new(&ds.scans[k])))
+        .collect()
+}
+
+/// The scans of `pairs`, in order.
+fn scans(pairs: &[ScanPair]) -> Vec<usize> {
+    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
+    scans.sort_unstable();
+    scans.dedup();
+    scans
+}
+
+/// Per registrar (in order), its detections in the scans of `pairs` (whose range `images`
+/// they read) from its registrations `runs` of them (`None`: the registrar has no detector,
+/// or one of no more than `round` rounds).
 pub fn detect(
     ds: &Dataset,
     pairs: &[ScanPair],
+    images: &BTreeMap<usize, RangeImage>,
     registrars: &[Box<dyn Registrar>],
     runs: &Runs,
     round: usize,
 ) -> Vec<Option<Detections>> {
-    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
-    scans.sort_unstable();
-    scans.dedup();
-    let detecting = registrars.iter().any(|r| r.moving().is_some());
-    let images: BTreeMap<usize, RangeImage> = if detecting {
-        scans
-            .par_iter()
-            .map(|&k| (k, RangeImage::new(&ds.scans[k])))
-            .collect()
-    } else {
-        BTreeMap::new()
-    };
+    let scans = scans(pairs);
     registrars
         .iter()
         .zip(&runs.per_variant)

@@ -58,13 +58,14 @@ const MIN_BIN_RAD: f64 = 1e-4;
 impl RangeImage {
     /// The range image of `scan` (bearings from its points, so whatever the dataset's sense).
     pub fn new(scan: &Scan) -> Self {
-        let mut bearings: Vec<f64> = scan
+        let bearings: Vec<f64> = scan
             .returns()
             .iter()
             .map(|r| r.point.y.atan2(r.point.x))
             .collect();
-        bearings.sort_by(f64::total_cmp);
-        let mut gaps: Vec<f64> = bearings
+        let mut sorted = bearings.clone();
+        sorted.sort_by(f64::total_cmp);
+        let mut gaps: Vec<f64> = sorted
             .windows(2)
             .map(|w| w[1] - w[0])
             .filter(|&g| g > 0.0)
@@ -74,8 +75,8 @@ impl RangeImage {
         let bins = ((TAU / (spacing_rad / BINS_PER_BEAM).max(MIN_BIN_RAD)).ceil() as usize).max(1);
         let bin_rad = TAU / bins as f64;
         let mut min_range_m = vec![f64::INFINITY; bins];
-        for r in scan.returns() {
-            let b = bin_of(r.point.y.atan2(r.point.x), bin_rad, bins);
+        for (r, &bearing_rad) in scan.returns().iter().zip(&bearings) {
+            let b = bin_of(bearing_rad, bin_rad, bins);
             min_range_m[b] = min_range_m[b].min(r.range_m);
         }
         Self {
@@ -130,7 +131,14 @@ impl RangeImage {
 
 /// The bin of `bearing_rad` among `bins` of `bin_rad` from −π.
 fn bin_of(bearing_rad: f64, bin_rad: f64, bins: usize) -> usize {
-    let from = (bearing_rad + PI).rem_euclid(TAU);
+    let from = bearing_rad + PI;
+    // An atan2 lies within [0, 2π] from −π: `rem_euclid` (a division) only outside [0, 2π),
+    // where it changes the value.
+    let from = if (0.0..TAU).contains(&from) {
+        from
+    } else {
+        from.rem_euclid(TAU)
+    };
     ((from / bin_rad) as usize).min(bins - 1)
 }
 

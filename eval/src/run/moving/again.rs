@@ -49,15 +49,30 @@ impl Masked {
     }
 }
 
+/// A registrar's `runs` of the pairs already registered again, each once from the first
+/// result the registrar has now, without what `detections` left out (by a chain that
+/// registers as the registrar does: its twin).
+#[derive(Clone)]
+pub struct Made {
+    /// What was left out of the scans.
+    pub detections: Detections,
+    /// Per pair, in the order of the pairs registered again.
+    pub runs: Vec<PairRun>,
+}
+
 /// Registers again, per registrar with `detections`, each of its registrations `runs` of
 /// `pairs` whose scans have returns left out, from its first result, and records what was
 /// left out (a pair with nothing left out keeps its result). A pair's time adds its second
-/// registration, its source scan's detection and masked surfaces.
+/// registration, its source scan's detection and masked surfaces. Where a registrar's
+/// pair was registered again already (`made`, per registrar; empty: none) with the same
+/// detections in both scans, that run is taken (the same numbers, made once), its time
+/// its own plus the source's detection.
 pub fn register_again(
     ds: &Dataset,
     pairs: &[ScanPair],
     registrars: &[Box<dyn Registrar>],
     detections: &[Option<Detections>],
+    made: &[Option<Made>],
     runs: &mut Runs,
 ) {
     // The distinct masks (detections, surface parameters) the registrars ask for, and each
@@ -78,24 +93,33 @@ pub fn register_again(
         })
         .collect();
     for (start, block) in (0..).step_by(BLOCK_PAIRS).zip(pairs.chunks(BLOCK_PAIRS)) {
-        let masked = masked_scans(ds, block, &groups);
-        for ((reg, group), variant_runs) in registrars
+        let masked = masked_scans(ds, block, &groups, &group_of, made);
+        for (v, (reg, variant_runs)) in registrars
             .iter()
-            .zip(&group_of)
             .zip(runs.per_variant.iter_mut())
+            .enumerate()
         {
-            let Some(group) = *group else { continue };
+            let Some(group) = group_of[v] else { continue };
             let (found, masked) = (groups[group].0, &masked[group]);
+            let made = made.get(v).and_then(Option::as_ref);
             let reg = reg.as_ref();
             variant_runs[start..start + block.len()]
                 .par_iter_mut()
-                .zip(block.par_iter())
-                .for_each_init(Workspace::default, |workspace, (run, pair)| {
+                .zip(block.par_iter().enumerate())
+                .for_each_init(Workspace::default, |workspace, (run, (i, pair))| {
                     let (Some((src, src_us)), Some((dst, _))) =
                         (found.get(&pair.source), found.get(&pair.reference))
                     else {
                         return;
                     };
+                    if let Some(made) = made.filter(|m| same(&m.detections, found, pair)) {
+                        let time_us = run.time_us.map(|t| t + src_us);
+                        *run = PairRun {
+                            time_us,
+                            ..made.runs[start + i].clone()
+                        };
+                        return;
+                    }
                     run.left_out = Some(LeftOut {
                         source: src.count(),
                         reference: dst.count(),
@@ -126,16 +150,34 @@ pub fn register_again(
     }
 }
 
-/// Per group (detections, surface parameters), the masked scans of the pairs of `block` that
-/// have returns left out.
+/// Whether `a` and `b` hold the same detections in both scans of `pair`.
+fn same(a: &Detections, b: &Detections, pair: &ScanPair) -> bool {
+    [pair.source, pair.reference]
+        .into_iter()
+        .all(|k| a.get(&k).map(|(d, _)| d) == b.get(&k).map(|(d, _)| d))
+}
+
+/// Per group (detections, surface parameters; `group_of` per registrar), the masked scans of
+/// the pairs of `block` that have returns left out and that some registrar of the group has
+/// not `made` already.
 fn masked_scans(
     ds: &Dataset,
     block: &[ScanPair],
     groups: &[(&Detections, SurfaceParams)],
+    group_of: &[Option<usize>],
+    made: &[Option<Made>],
 ) -> Vec<BTreeMap<usize, Masked>> {
     groups
         .iter()
-        .map(|(found, params)| {
+        .enumerate()
+        .map(|(g, (found, params))| {
+            // The group's registrars' runs already made, or none where one of them has none.
+            let made: Option<Vec<&Made>> = group_of
+                .iter()
+                .enumerate()
+                .filter(|(_, of)| **of == Some(g))
+                .map(|(v, _)| made.get(v).and_then(Option::as_ref))
+                .collect();
             let mut scans: Vec<(usize, &Detection)> = Vec::new();
             for pair in block {
                 let (Some((src, _)), Some((dst, _))) =
@@ -143,7 +185,10 @@ fn masked_scans(
                 else {
                     continue;
                 };
-                if src.count() + dst.count() > 0 {
+                let all_made = made
+                    .as_ref()
+                    .is_some_and(|m| m.iter().all(|m| same(&m.detections, found, pair)));
+                if src.count() + dst.count() > 0 && !all_made {
                     scans.extend([(pair.source, src), (pair.reference, dst)]);
                 }
             }
