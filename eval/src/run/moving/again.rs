@@ -150,11 +150,14 @@ pub fn register_again(
     }
 }
 
-/// Whether `a` and `b` hold the same detections in both scans of `pair`.
+/// Whether `a` and `b` leave the same returns out of both scans of `pair` (what a second
+/// registration reads of a detection: its share and split follow from them, and the count of
+/// returns seen to move, which may differ, is not read).
 fn same(a: &Detections, b: &Detections, pair: &ScanPair) -> bool {
-    [pair.source, pair.reference]
-        .into_iter()
-        .all(|k| a.get(&k).map(|(d, _)| d) == b.get(&k).map(|(d, _)| d))
+    [pair.source, pair.reference].into_iter().all(|k| {
+        let (a, b) = (a.get(&k), b.get(&k));
+        a.map(|(d, _)| &d.left_out) == b.map(|(d, _)| &d.left_out)
+    })
 }
 
 /// Per group (detections, surface parameters; `group_of` per registrar), the masked scans of
