@@ -6,6 +6,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::range_image::Window;
 use super::segments::{extent_m, segments};
 use super::{Detection, MovingReturns, Neighbour, Placement, FREE_SPACE};
 use crate::registry::{ParamError, Params, StageKind, StageSpec};
@@ -141,12 +142,12 @@ impl FreeSpace {
             .max(self.n_sigma * bearing_sigma_rad)
     }
 
-    /// Whether `neighbour`, asked over windows of `half_width_rad`, looked through where
-    /// return `i` of `scan` lies.
+    /// Whether `neighbour`, asked over its `window`, looked through where return `i` of
+    /// `scan` lies.
     fn seen_through(
         &self,
         neighbour: &Neighbour<'_>,
-        half_width_rad: f64,
+        window: &Window<'_>,
         sensor: &SensorModel,
         i: usize,
         scan: &Scan,
@@ -157,10 +158,7 @@ impl FreeSpace {
         if range_m <= 0.0 {
             return false;
         }
-        let Some(seen_m) = neighbour
-            .image
-            .nearest_range_m(q.y.atan2(q.x), half_width_rad)
-        else {
+        let Some(seen_m) = window.nearest_range_m(q.coords) else {
             return false;
         };
         // The bar below is never nearer than `min_gap_m`: most returns (the static scene, seen
@@ -201,10 +199,10 @@ impl MovingReturns for FreeSpace {
         let mut through = vec![false; n];
         let all: f64 = scan.returns().iter().map(|r| r.range_m).sum();
         for nb in neighbours {
-            let half_width_rad = self.half_width_rad(nb, sensor);
+            let window = nb.image.window(self.half_width_rad(nb, sensor));
             let mut share = 0.0;
             for (i, t) in through.iter_mut().enumerate() {
-                *t = self.seen_through(nb, half_width_rad, sensor, i, scan);
+                *t = self.seen_through(nb, &window, sensor, i, scan);
                 share += if *t { scan.returns()[i].range_m } else { 0.0 };
             }
             // A chained pose that is wrong makes the static scene look through itself: such a
