@@ -105,29 +105,9 @@ impl RangeImage {
         Window {
             image: self,
             reach,
+            bins_per_rad: 1.0 / self.bin_rad,
             minima: (windows.reach == reach).then_some(windows.min_range_m.as_slice()),
         }
-    }
-
-    /// The bin of the bearing of `towards` (`None`: it has none that is finite): the bin of its
-    /// `atan2` exactly, but found without one where a cheap bearing ([`bearing_near_rad`])
-    /// lies clear of the bins' edges by more than its error (an `atan2` per return and
-    /// neighbour was a third of `detect`'s cost).
-    fn bin_towards(&self, towards: Vector2<f64>) -> Option<usize> {
-        let bins = self.min_range_m.len();
-        if let Some(near_rad) = bearing_near_rad(towards) {
-            let at = (near_rad + PI) / self.bin_rad;
-            // Within the margin of an edge, `atan2`'s bin may be the other one.
-            let bin = at as usize;
-            let past_m = at - bin as f64;
-            if at >= 0.0 && past_m > EDGE_MARGIN_BINS && 1.0 - past_m > EDGE_MARGIN_BINS {
-                return Some(bin.min(bins - 1));
-            }
-        }
-        let bearing_rad = towards.y.atan2(towards.x);
-        bearing_rad
-            .is_finite()
-            .then(|| bin_of(bearing_rad, self.bin_rad, bins))
     }
 }
 
@@ -138,7 +118,7 @@ const BEARING_NEAR_ERROR_RAD: f64 = 1e-7;
 
 /// How near an edge of its bin (a share of a bin) a cheap bearing leaves the bin to `atan2`:
 /// a bin is never narrower than [`MIN_BIN_RAD`]·(1 − 10⁻⁴), where
-/// [`BEARING_NEAR_ERROR_RAD`] is 1.0·10⁻³ of it, and the rounding of `bin_of`'s arithmetic a
+/// [`BEARING_NEAR_ERROR_RAD`] is 1.0·10⁻³ of it, and the rounding of both bins' arithmetic a
 /// few ulp of a bin count below 63 000 (10⁻¹¹).
 const EDGE_MARGIN_BINS: f64 = 2e-3;
 const _: () = assert!(BEARING_NEAR_ERROR_RAD / (MIN_BIN_RAD * (1.0 - 1e-4)) < EDGE_MARGIN_BINS);
@@ -182,6 +162,8 @@ pub struct Window<'a> {
     image: &'a RangeImage,
     /// Bins either side.
     reach: usize,
+    /// Bins per radian, for the cheap bearings' bins (a product, not a division, per return).
+    bins_per_rad: f64,
     /// Each bin's window's minimum, where the image holds them for this reach.
     minima: Option<&'a [f64]>,
 }
@@ -196,7 +178,7 @@ impl Window<'_> {
         if bins == 0 {
             return None;
         }
-        let centre = self.image.bin_towards(towards)?;
+        let centre = self.bin_towards(towards)?;
         let nearest = match self.minima {
             Some(minima) => minima[centre],
             None => {
@@ -216,6 +198,27 @@ impl Window<'_> {
             }
         };
         nearest.is_finite().then_some(nearest)
+    }
+
+    /// The bin of the bearing of `towards` (`None`: it has none that is finite): the bin of its
+    /// `atan2` exactly, but found without one where a cheap bearing ([`bearing_near_rad`])
+    /// lies clear of the bins' edges by more than its error (an `atan2` per return and
+    /// neighbour was a third of `detect`'s cost).
+    fn bin_towards(&self, towards: Vector2<f64>) -> Option<usize> {
+        let bins = self.image.min_range_m.len();
+        if let Some(near_rad) = bearing_near_rad(towards) {
+            let at = (near_rad + PI) * self.bins_per_rad;
+            // Within the margin of an edge, `atan2`'s bin may be the other one.
+            let bin = at as usize;
+            let past_m = at - bin as f64;
+            if at >= 0.0 && past_m > EDGE_MARGIN_BINS && 1.0 - past_m > EDGE_MARGIN_BINS {
+                return Some(bin.min(bins - 1));
+            }
+        }
+        let bearing_rad = towards.y.atan2(towards.x);
+        bearing_rad
+            .is_finite()
+            .then(|| bin_of(bearing_rad, self.image.bin_rad, bins))
     }
 }
 
@@ -302,18 +305,19 @@ mod tests {
             let ranges = vec![10.0; bearings.len()];
             let image = RangeImage::new(&Scan::from_polar(&ranges, &bearings).unwrap());
             let bins = image.min_range_m.len();
+            let window = image.window(0.0);
             let exact = |v: Vector2<f64>| bin_of(v.y.atan2(v.x), image.bin_rad, bins);
             for b in 0..=bins {
                 let edge = b as f64 * image.bin_rad - PI;
                 for offset in [-1e-6, -1e-9, -1e-12, 0.0, 1e-12, 1e-9, 1e-6] {
                     let r = 1.0 + 50.0 * uniform();
                     let v = Vector2::new((edge + offset).cos(), (edge + offset).sin()) * r;
-                    assert_eq!(image.bin_towards(v), Some(exact(v)), "{v:?}");
+                    assert_eq!(window.bin_towards(v), Some(exact(v)), "{v:?}");
                 }
             }
             for _ in 0..200_000 {
                 let v = Vector2::new(uniform() - 0.5, uniform() - 0.5) * 100.0;
-                assert_eq!(image.bin_towards(v), Some(exact(v)), "{v:?}");
+                assert_eq!(window.bin_towards(v), Some(exact(v)), "{v:?}");
             }
         }
     }
