@@ -40,7 +40,7 @@ use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
 use crate::run::lags::LagRuns;
 use crate::run::left_out::DrawnScan;
-use crate::run::runner::{self, Methods, PairRun, RunPlan, Runs};
+use crate::run::runner::{self, run_scans, Methods, PairRun, RunPlan, Runs};
 use crate::run::status::PairStatus;
 
 /// A jump is split evidence only when the kept returns alone, paired once at the start
@@ -351,18 +351,10 @@ fn images(
     if !registrars.iter().any(|r| r.moving().is_some()) {
         return BTreeMap::new();
     }
-    scans(pairs)
+    run_scans(pairs)
         .par_iter()
         .map(|&k| (k, RangeImage::new(&ds.scans[k])))
         .collect()
-}
-
-/// The scans of `pairs`, in order.
-fn scans(pairs: &[ScanPair]) -> Vec<usize> {
-    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
-    scans.sort_unstable();
-    scans.dedup();
-    scans
 }
 
 /// Per registrar (in order), its detections in the scans of `pairs` (whose range `images`
@@ -376,7 +368,7 @@ pub fn detect(
     runs: &Runs,
     round: usize,
 ) -> Vec<Option<Detections>> {
-    let scans = scans(pairs);
+    let scans = run_scans(pairs);
     registrars
         .iter()
         .zip(&runs.per_variant)

@@ -1,7 +1,7 @@
 use datasets::synthetic::{generate, Scenario};
 use icp_core::spec::VariantSpec;
 use icp_core::variants::builtin;
-use icp_core::{IcpError, Prepared, Registration, Scan, SurfaceParams, Surfaces, Workspace};
+use icp_core::{IcpError, Prepared, Registration, Scan, SurfaceParams, Workspace};
 use nalgebra::{Isometry2, Vector2};
 
 use super::again::{again, Masked};
