@@ -2,11 +2,14 @@
 //! (its first 60 scans after the first boat starts to move, scans 70..130), per pair, beside
 //! PL_ICP's registration of the pair from the identity (`register`), for its scale:
 //!
-//! - `range-image`: one scan's range image (made once per scan and shared by the variants);
-//! - `detect`: one scan's detection against its 16 neighbours (k−8..k+8) at their true poses;
+//! - `range-image`: one scan's range image (made once per scan and run, shared by the rounds
+//!   and the variants);
+//! - `detect`: one scan's detection against its 16 neighbours (k−8..k+8) at their true poses
+//!   (each image's window minima are made by its first detection of the first iteration and
+//!   read after, as in a run, where an image serves 16 scans in each round);
 //! - `register-again`: the second registration of the pair without the returns left out,
 //!   from the first result, the masked scans' surface estimates included (as the harness does
-//!   it, per pair and round).
+//!   it, once per scan and round, shared by the scan's two pairs).
 //!
 //! The stage runs `detect` and `register-again` once per round (two by default) on top of the
 //! first registration.
@@ -18,7 +21,7 @@ use datasets::synthetic::{generate, Scenario};
 use datasets::ScanPair;
 use icp_core::moving::{neighbour_poses, FreeSpace, MovingReturns, Neighbour, RangeImage};
 use icp_core::variants::builtin;
-use icp_core::{Prepared, Registrar, Surfaces, Workspace};
+use icp_core::{Prepared, Registrar, Scan, Surfaces, Workspace};
 use nalgebra::{Isometry2, Matrix3, Vector3};
 
 /// The scans benchmarked.
@@ -113,21 +116,20 @@ fn moving(c: &mut Criterion) {
     });
     g.bench_function("register-again", |b| {
         b.iter(|| {
+            let masked: Vec<(Scan, Surfaces)> = range
+                .clone()
+                .zip(&detections)
+                .map(|(k, d)| {
+                    let scan = ds.scans[k].without(&d.left_out);
+                    let surfaces = Surfaces::estimate(&scan, &params);
+                    (scan, surfaces)
+                })
+                .collect();
+            let prepared = |i: usize| Prepared::new(&masked[i].0, &masked[i].1);
             (0..SCANS - 1)
                 .filter(|&i| {
-                    let source = ds.scans[FIRST + i].without(&detections[i].left_out);
-                    let reference = ds.scans[FIRST + i + 1].without(&detections[i + 1].left_out);
-                    let (ss, rs) = (
-                        Surfaces::estimate(&source, &params),
-                        Surfaces::estimate(&reference, &params),
-                    );
                     pl_icp
-                        .register_prepared(
-                            &mut workspace,
-                            Prepared::new(&source, &ss),
-                            Prepared::new(&reference, &rs),
-                            firsts[i],
-                        )
+                        .register_prepared(&mut workspace, prepared(i), prepared(i + 1), firsts[i])
                         .is_ok()
                 })
                 .count()

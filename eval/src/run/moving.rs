@@ -2,41 +2,46 @@
 //! every consecutive pair is registered, each scan's detector runs against its neighbours
 //! (k−L..k+L, chained through the same variant's registrations whose status is `ok`), and
 //! every pair whose scans have returns left out is registered again without them, starting
-//! from its first result. The first result's global check and ambiguity are kept (the second
-//! starts in its basin). A pair whose evidence is split is flagged `dynamic`, with both motions in its
-//! reason: more of a scan's scene moves than the detector's bar (the result without the
-//! moving returns is kept), or the motion without them lies farther from the one the round
-//! started from than the global check's [`SUSPECT_APART_M`] or [`SUSPECT_APART_DEG`] (the
-//! second registration found another basin; the start is kept) while the kept returns
-//! themselves pull the start away ([`PULL_APART_M`], [`PULL_APART_DEG`]). A jump from a start
-//! that the kept returns fit is the second registration wandering off, not split evidence: the
+//! from its first result ([`again`]). The first result's global check and ambiguity are kept
+//! (the second starts in its basin). A pair whose evidence is split is flagged `dynamic`,
+//! with both motions in its reason: more of a scan's scene moves than the detector's bar (the
+//! result without the moving returns is kept), or the motion without them lies farther from
+//! the one the round started from than the global check's
+//! [`SUSPECT_APART_M`](crate::run::status::SUSPECT_APART_M) or
+//! [`SUSPECT_APART_DEG`](crate::run::status::SUSPECT_APART_DEG) (the second registration
+//! found another basin; the start is kept) while the kept returns themselves pull the start
+//! away ([`PULL_APART_M`], [`PULL_APART_DEG`]). A jump from a start that the kept returns fit
+//! is the second registration wandering off, not split evidence: the
 //! pair keeps its start and its status.
 //!
 //! A detection depends on the variant's registrations of the whole sequence, so a sharded run
 //! gives each shard whole variants (the variant cut of the `shard` module), as for starts
 //! that chain pairs.
 
+mod again;
+
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
-use icp_core::assess::local_fit;
 use icp_core::moving::{neighbour_poses, Detection, Neighbour, Placement, RangeImage, Step};
 use icp_core::registry::StageSpec;
 use icp_core::spec::VariantSpec;
 use icp_core::variants::placement_chain;
 use icp_core::Icp;
-use icp_core::{Prepared, Registrar, Surfaces, Workspace};
+use icp_core::Registrar;
 use indicatif::ProgressBar;
-use nalgebra::{Isometry2, Matrix3};
+use nalgebra::Matrix3;
 use rayon::prelude::*;
+
+pub use again::{register_again, Made};
 
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
 use crate::run::lags::LagRuns;
-use crate::run::left_out::{Confusion, DrawnScan, LeftOut};
-use crate::run::runner::{self, Methods, PairRun, RunPlan, Runs};
-use crate::run::status::{apart, PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
+use crate::run::left_out::DrawnScan;
+use crate::run::runner::{self, run_scans, Methods, PairRun, RunPlan, Runs};
+use crate::run::status::PairStatus;
 
 /// A jump is split evidence only when the kept returns alone, paired once at the start
 /// ([`local_fit`]), pull it farther than this, m…
@@ -96,7 +101,10 @@ pub fn apply(
     plan: &RunPlan<'_>,
 ) {
     let registrars = methods.registrars;
+    let images = images(ds, pairs, registrars);
     let mut placed = vec![None; registrars.len()];
+    // A twin's pairs that its chain registered again with the detections it gets now.
+    let mut made: Vec<Option<Made>> = vec![None; registrars.len()];
     let mut unjudged: Vec<BTreeMap<usize, PairStatus>> = vec![BTreeMap::new(); registrars.len()];
     for (spec, chain, users) in placement_chains(registrars) {
         let twin = registrars.iter().enumerate().position(|(v, r)| {
@@ -125,7 +133,8 @@ pub fn apply(
                 &ProgressBar::hidden(),
             ),
         };
-        let mut last = rounds(ds, pairs, &chain, &mut chain_runs).pop().flatten();
+        let (mut last, once) = rounds(ds, pairs, &images, &chain, &mut chain_runs);
+        let mut last = last.pop().flatten();
         if let Some(last) = last.as_mut() {
             // Each scan's share of the chain's work: its pair's registrations and detections.
             for (pair, run) in pairs.iter().zip(&chain_runs.per_variant[0]) {
@@ -139,19 +148,26 @@ pub fn apply(
             placed[v].clone_from(&last);
             unjudged[v].clone_from(&isolated);
         }
+        if let (Some(v), Some(Some(detections))) = (twin, once.into_iter().next()) {
+            // The chain's runs are the twin's first results registered again once.
+            made[v] = Some(Made {
+                detections,
+                runs: chain_runs.per_variant.swap_remove(0),
+            });
+        }
     }
-    let mut found = rounds(ds, pairs, registrars, runs);
+    let (mut found, _) = rounds(ds, pairs, &images, registrars, runs);
     for (f, p) in found.iter_mut().zip(placed) {
         if p.is_some() {
             *f = p;
         }
     }
-    register_again(ds, pairs, registrars, &found, runs);
+    register_again(ds, pairs, registrars, &found, &made, runs);
     let unjudged = confirmed(pairs, unjudged, runs);
     flag_isolated(pairs, &unjudged, runs);
     if let Some(lagged) = lagged {
         let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
-        register_again(ds, &lag_pairs, registrars, &found, &mut lagged.runs);
+        register_again(ds, &lag_pairs, registrars, &found, &[], &mut lagged.runs);
     }
 }
 
@@ -269,15 +285,18 @@ fn registers_as(spec: &VariantSpec, chain: &VariantSpec) -> bool {
 }
 
 /// The rounds of the detectors of `registrars` that place their neighbours by the variant's
-/// own registrations `runs` of `pairs`: each round detects from the results of the round
-/// before and registers the consecutive pairs again; per registrar, the last round's
-/// detections (`None` without such a detector).
+/// own registrations `runs` of `pairs` (the scans' range `images`): each round detects from
+/// the results of the round before and registers the consecutive pairs again. Per
+/// registrar, the last round's detections (`None` without such a detector), and those its
+/// `runs` were registered again with where that was once (`None`: never, or more than once,
+/// each time from the last).
 fn rounds(
     ds: &Dataset,
     pairs: &[ScanPair],
+    images: &BTreeMap<usize, RangeImage>,
     registrars: &[Box<dyn Registrar>],
     runs: &mut Runs,
-) -> Vec<Option<Detections>> {
+) -> (Vec<Option<Detections>>, Vec<Option<Detections>>) {
     let own = |r: &dyn Registrar| {
         r.moving()
             .filter(|m| m.placement() == Placement::Own)
@@ -289,49 +308,67 @@ fn rounds(
         .max()
         .unwrap_or(0);
     let mut last: Vec<Option<Detections>> = vec![None; registrars.len()];
+    let mut registered: Vec<(usize, Option<Detections>)> = vec![(0, None); registrars.len()];
     for round in 0..rounds {
-        let detections = detect(ds, pairs, registrars, runs, round);
+        let detections = detect(ds, pairs, images, registrars, runs, round);
         // The last round's registrations are made by the caller, with the lag pairs'.
         let later: Vec<Option<Detections>> = detections
             .iter()
             .zip(registrars)
             .map(|(d, r)| d.clone().filter(|_| own(r.as_ref()) > round + 1))
             .collect();
-        register_again(ds, pairs, registrars, &later, runs);
+        register_again(ds, pairs, registrars, &later, &[], runs);
+        for ((times, with), d) in registered.iter_mut().zip(&later) {
+            if d.is_some() {
+                *times += 1;
+                with.clone_from(d);
+            }
+        }
         for (l, d) in last.iter_mut().zip(detections) {
             if d.is_some() {
                 *l = d;
             }
         }
     }
-    last
+    let once = registered
+        .into_iter()
+        .map(|(times, with)| with.filter(|_| times == 1))
+        .collect();
+    (last, once)
 }
 
 /// Per scan, a variant's detection, and its wall time, µs.
 pub type Detections = BTreeMap<usize, (Detection, f64)>;
 
-/// Per registrar (in order), its detections in the scans of `pairs` from its registrations
-/// `runs` of them (`None`: the registrar has no detector, or one of no more than `round`
-/// rounds).
+/// The range images of the scans of `pairs` where one of `registrars` detects (none
+/// otherwise), made once per run: every round and every chain asks the same scans, and an
+/// image keeps the window minima its first detection made.
+fn images(
+    ds: &Dataset,
+    pairs: &[ScanPair],
+    registrars: &[Box<dyn Registrar>],
+) -> BTreeMap<usize, RangeImage> {
+    if !registrars.iter().any(|r| r.moving().is_some()) {
+        return BTreeMap::new();
+    }
+    run_scans(pairs)
+        .par_iter()
+        .map(|&k| (k, RangeImage::new(&ds.scans[k])))
+        .collect()
+}
+
+/// Per registrar (in order), its detections in the scans of `pairs` (whose range `images`
+/// they read) from its registrations `runs` of them (`None`: the registrar has no detector,
+/// or one of no more than `round` rounds).
 pub fn detect(
     ds: &Dataset,
     pairs: &[ScanPair],
+    images: &BTreeMap<usize, RangeImage>,
     registrars: &[Box<dyn Registrar>],
     runs: &Runs,
     round: usize,
 ) -> Vec<Option<Detections>> {
-    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
-    scans.sort_unstable();
-    scans.dedup();
-    let detecting = registrars.iter().any(|r| r.moving().is_some());
-    let images: BTreeMap<usize, RangeImage> = if detecting {
-        scans
-            .par_iter()
-            .map(|&k| (k, RangeImage::new(&ds.scans[k])))
-            .collect()
-    } else {
-        BTreeMap::new()
-    };
+    let scans = run_scans(pairs);
     registrars
         .iter()
         .zip(&runs.per_variant)
@@ -382,140 +419,6 @@ fn steps(scans: usize, pairs: &[ScanPair], runs: &[PairRun], inflation: f64) -> 
         }
     }
     steps
-}
-
-/// Registers again, per registrar with `detections`, each of its registrations `runs` of
-/// `pairs` whose scans have returns left out, from its first result, and records what was
-/// left out (a pair with nothing left out keeps its result).
-pub fn register_again(
-    ds: &Dataset,
-    pairs: &[ScanPair],
-    registrars: &[Box<dyn Registrar>],
-    detections: &[Option<Detections>],
-    runs: &mut Runs,
-) {
-    for ((reg, found), variant_runs) in registrars
-        .iter()
-        .zip(detections)
-        .zip(runs.per_variant.iter_mut())
-    {
-        let Some(found) = found else { continue };
-        let reg = reg.as_ref();
-        variant_runs
-            .par_iter_mut()
-            .zip(pairs.par_iter())
-            .for_each_init(Workspace::default, |workspace, (run, pair)| {
-                let (Some((src, src_us)), Some((dst, _))) =
-                    (found.get(&pair.source), found.get(&pair.reference))
-                else {
-                    return;
-                };
-                again(ds, reg, workspace, *pair, (src, dst), run);
-                if let Some(t) = run.time_us.as_mut() {
-                    *t += src_us;
-                }
-            });
-    }
-}
-
-/// The pair's registration again without the returns `found` left out of its scans.
-fn again(
-    ds: &Dataset,
-    reg: &dyn Registrar,
-    workspace: &mut Workspace,
-    pair: ScanPair,
-    (src, dst): (&Detection, &Detection),
-    run: &mut PairRun,
-) {
-    let (source, reference) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
-    run.left_out = Some(LeftOut {
-        source: src.count(),
-        reference: dst.count(),
-        source_truth: Confusion::of(source, src),
-        source_indices: (0..)
-            .zip(&src.left_out)
-            .filter_map(|(i, &out)| out.then_some(i))
-            .collect(),
-    });
-    let Ok(first) = &run.result else { return };
-    if src.count() + dst.count() == 0 {
-        return;
-    }
-    let clock = Instant::now();
-    let (source, reference) = (
-        source.without(&src.left_out),
-        reference.without(&dst.left_out),
-    );
-    let params = reg.surface_params();
-    let (ss, rs) = (
-        Surfaces::estimate(&source, &params),
-        Surfaces::estimate(&reference, &params),
-    );
-    let result = reg.register_prepared(
-        workspace,
-        Prepared::new(&source, &ss),
-        Prepared::new(&reference, &rs),
-        first.t_ref_src,
-    );
-    if let Some(t) = run.time_us.as_mut() {
-        *t += clock.elapsed().as_secs_f64() * 1e6;
-    }
-    let Ok(without) = &result else {
-        // Too few returns left to register, say: the pair fails with the reason.
-        run.status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
-        run.result = result;
-        return;
-    };
-    // Split evidence: the motion without the moving returns is far from the one it started
-    // from (another basin, whatever its own verdict: the start, which the round before agreed
-    // on, is kept), or much of a scan moves (the result without them is kept).
-    let jumped = beyond(
-        &first.t_ref_src,
-        &without.t_ref_src,
-        SUSPECT_APART_M,
-        SUSPECT_APART_DEG,
-    );
-    let status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
-    let dynamic = PairStatus::Dynamic {
-        source_share: src.moving_share,
-        reference_share: dst.moving_share,
-        without: without.t_ref_src,
-        with: first.t_ref_src,
-    };
-    if jumped {
-        // Split evidence only if the kept returns pull the start away too; if they fit it, the
-        // second registration wandered into another basin, and the start (the round before's
-        // result, with its status) stands. A fit that cannot be made keeps the flag.
-        let pulled = local_fit(
-            Prepared::new(&source, &ss),
-            Prepared::new(&reference, &rs),
-            first.t_ref_src,
-        )
-        .map_or(true, |fit| {
-            beyond(&first.t_ref_src, &fit, PULL_APART_M, PULL_APART_DEG)
-        });
-        if pulled {
-            run.status = dynamic;
-        }
-        return;
-    }
-    let mut result = result;
-    if let Ok(r) = result.as_mut() {
-        // The work of both registrations.
-        r.iterations += first.iterations;
-    }
-    run.status = if !status.is_failure() && (src.split || dst.split) {
-        dynamic
-    } else {
-        status
-    };
-    run.result = result;
-}
-
-/// True when `b` lies farther from `a` than `m` metres or `deg` degrees ([`apart`]).
-fn beyond(a: &Isometry2<f64>, b: &Isometry2<f64>, m: f64, deg: f64) -> bool {
-    let (apart_m, apart_deg) = apart(a, b);
-    apart_m > m || apart_deg > deg
 }
 
 #[cfg(test)]

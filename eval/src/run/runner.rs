@@ -229,9 +229,7 @@ impl PreparedScans<'_> {
     /// Keeps the estimates of the scans of `block` already made, drops the others, makes the
     /// missing ones in parallel, and appends their times (in scan order) to `times_us`.
     fn advance(&mut self, ds: &Dataset, block: &[ScanPair], times_us: &mut Vec<f64>) {
-        let mut wanted: Vec<usize> = block.iter().flat_map(|p| [p.source, p.reference]).collect();
-        wanted.sort_unstable();
-        wanted.dedup();
+        let wanted = run_scans(block);
         // The previous block's other estimates are dropped before the new ones are made.
         let mut previous = std::mem::take(&mut self.per_scan);
         for k in &wanted {
@@ -295,6 +293,14 @@ struct PairBuffers {
     workspace: Workspace,
     global: GlobalWorkspace,
     pool: GridPool,
+}
+
+/// The scans of `pairs`, in order.
+pub fn run_scans(pairs: &[ScanPair]) -> Vec<usize> {
+    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
+    scans.sort_unstable();
+    scans.dedup();
+    scans
 }
 
 /// Each of the run's threads' [`PairBuffers`], kept across blocks and rayon's splits of them

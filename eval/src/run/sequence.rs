@@ -40,7 +40,7 @@ use crate::measure::cycles;
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended;
 use crate::run::lags::LagRuns;
-use crate::run::runner::{PairRun, Runs};
+use crate::run::runner::{run_scans, PairRun, Runs};
 use crate::run::sequence_setup::SequenceMode;
 use crate::run::setup::EvalSetup;
 use crate::run::status::{apart, PairStatus, CHI2_3_AT_999};
@@ -258,14 +258,6 @@ fn smooth_variant(
             }
         })
         .collect()
-}
-
-/// The scans of the run's pairs, in order.
-fn run_scans(pairs: &[ScanPair]) -> Vec<usize> {
-    let mut scans: Vec<usize> = pairs.iter().flat_map(|p| [p.source, p.reference]).collect();
-    scans.sort_unstable();
-    scans.dedup();
-    scans
 }
 
 /// The scans' times: their timestamps where every scan has one, else their index times the

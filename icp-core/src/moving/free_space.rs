@@ -6,6 +6,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::range_image::Window;
 use super::segments::{extent_m, segments};
 use super::{Detection, MovingReturns, Neighbour, Placement, FREE_SPACE};
 use crate::registry::{ParamError, Params, StageKind, StageSpec};
@@ -132,10 +133,21 @@ impl Params for FreeSpace {
 }
 
 impl FreeSpace {
-    /// Whether `neighbour` looked through where return `(point, range)` of the scan lies.
+    /// The half width of the window of `neighbour`'s rays asked about a return, rad.
+    fn half_width_rad(&self, neighbour: &Neighbour<'_>, sensor: &SensorModel) -> f64 {
+        // Both bearings' noise (eq. 8's σ_α) moves a return along its surface, and on a
+        // surface seen obliquely that is a change of range: the window covers it.
+        let bearing_sigma_rad = std::f64::consts::SQRT_2 * sensor.sigma_alpha_rad;
+        (self.half_width_beams * neighbour.image.spacing_rad())
+            .max(self.n_sigma * bearing_sigma_rad)
+    }
+
+    /// Whether `neighbour`, asked over its `window`, looked through where return `i` of
+    /// `scan` lies.
     fn seen_through(
         &self,
         neighbour: &Neighbour<'_>,
+        window: &Window<'_>,
         sensor: &SensorModel,
         i: usize,
         scan: &Scan,
@@ -146,17 +158,14 @@ impl FreeSpace {
         if range_m <= 0.0 {
             return false;
         }
-        // Both bearings' noise (eq. 8's σ_α) moves a return along its surface, and on a
-        // surface seen obliquely that is a change of range: the window covers it.
-        let bearing_sigma_rad = std::f64::consts::SQRT_2 * sensor.sigma_alpha_rad;
-        let half_width_rad = (self.half_width_beams * neighbour.image.spacing_rad())
-            .max(self.n_sigma * bearing_sigma_rad);
-        let Some(seen_m) = neighbour
-            .image
-            .nearest_range_m(q.y.atan2(q.x), half_width_rad)
-        else {
+        let Some(seen_m) = window.nearest_range_m(q.coords) else {
             return false;
         };
+        // The bar below is never nearer than `min_gap_m`: most returns (the static scene, seen
+        // where it was) stop here, without the variances.
+        if seen_m <= range_m + self.min_gap_m {
+            return false;
+        }
         // The chained pose's error along the ray: δq = δt + J(q − t) δθ.
         let ray = q.coords / range_m;
         let lever = q.coords - neighbour.t_nb_scan.translation.vector;
@@ -188,15 +197,16 @@ impl MovingReturns for FreeSpace {
         let n = scan.len();
         let mut votes = vec![0usize; n];
         let mut through = vec![false; n];
+        let all: f64 = scan.returns().iter().map(|r| r.range_m).sum();
         for nb in neighbours {
+            let window = nb.image.window(self.half_width_rad(nb, sensor));
             let mut share = 0.0;
             for (i, t) in through.iter_mut().enumerate() {
-                *t = self.seen_through(nb, sensor, i, scan);
+                *t = self.seen_through(nb, &window, sensor, i, scan);
                 share += if *t { scan.returns()[i].range_m } else { 0.0 };
             }
             // A chained pose that is wrong makes the static scene look through itself: such a
             // neighbour says nothing about what moves.
-            let all: f64 = scan.returns().iter().map(|r| r.range_m).sum();
             if share > self.max_neighbour_share * all {
                 continue;
             }

@@ -39,7 +39,7 @@ use serde::{Deserialize, Serialize};
 
 pub use chain::{neighbour_poses, Step};
 pub use free_space::FreeSpace;
-pub use range_image::RangeImage;
+pub use range_image::{RangeImage, Window};
 
 use crate::registry::{Family, Kind, NoParams, StageKind, StageSpec};
 use crate::{Scan, SensorModel};
