@@ -17,6 +17,10 @@ pub struct LeftOut {
     /// The source scan's returns left out, by index (what `report.html` draws).
     #[serde(default)]
     pub source_indices: Vec<u32>,
+    /// The reference scan's returns left out, by index (what `--sequence deskew` leaves out
+    /// again when it registers the pair a second time).
+    #[serde(default)]
+    pub reference_indices: Vec<u32>,
 }
 
 /// A scan drawn with the returns its variant's detector left out (`report.html`).

@@ -418,6 +418,14 @@ pub fn register_again(
     }
 }
 
+/// The indices of the returns marked in `left_out`.
+fn indices(left_out: &[bool]) -> Vec<u32> {
+    (0..)
+        .zip(left_out)
+        .filter_map(|(i, &out)| out.then_some(i))
+        .collect()
+}
+
 /// The pair's registration again without the returns `found` left out of its scans.
 fn again(
     ds: &Dataset,
@@ -432,10 +440,8 @@ fn again(
         source: src.count(),
         reference: dst.count(),
         source_truth: Confusion::of(source, src),
-        source_indices: (0..)
-            .zip(&src.left_out)
-            .filter_map(|(i, &out)| out.then_some(i))
-            .collect(),
+        source_indices: indices(&src.left_out),
+        reference_indices: indices(&dst.left_out),
     });
     let Ok(first) = &run.result else { return };
     if src.count() + dst.count() == 0 {
