@@ -6,10 +6,11 @@
 //! from at the scan's time. Every pair the variant registered (consecutive and across lags)
 //! is registered once more on the deskewed scans, from its first result and without the
 //! returns its detector of moving returns left out (`run::moving`), and the sequence module
-//! smooths those registrations again in batch. A pair the variant flagged keeps its flag
-//! whatever the second registration gives; an ok pair takes the second registration's own
-//! verdict ([`PairStatus::of`], with the first's global check and ambiguity: it starts in the
-//! first's basin).
+//! smooths those registrations again in batch. A pair the variant flagged keeps its run (the
+//! smoother leaves it out, and the estimator's pair keeps the flag); an ok pair takes the
+//! second registration and its own verdict ([`PairStatus::of`], with the first's global check
+//! and ambiguity: it starts in the first's basin), so a second registration that fails or
+//! turns degenerate is flagged rather than smoothed.
 //!
 //! # When each return was taken
 //! The datasets state a sweep only as `sweep_s` (`datasets::Dataset::sweep_s`). The synthetic
@@ -77,7 +78,7 @@ pub fn deskewed_scans(
 
 /// Each of a variant's registrations `runs` of `pairs` made again with `registrar` on the
 /// `deskewed` scans (indexed by position in `scans`, the run's dataset indices), from its
-/// first result; a pair without a first result keeps its run. `covariance` is the run's mode
+/// first result; a flagged pair keeps its run. `covariance` is the run's mode
 /// (see the module docs).
 pub fn register_again(
     registrar: &dyn Registrar,
@@ -109,7 +110,7 @@ fn again(
     (source, reference): (&Scan, &Scan),
     run: &PairRun,
 ) -> PairRun {
-    let Ok(first) = &run.result else {
+    let (PairStatus::Ok, Ok(first)) = (&run.status, &run.result) else {
         return run.clone();
     };
     let (source, reference) = match &run.left_out {
@@ -137,11 +138,7 @@ fn again(
         second.jackknife_covariance = first.jackknife_covariance;
     }
     PairRun {
-        status: if run.status == PairStatus::Ok {
-            PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref())
-        } else {
-            run.status.clone()
-        },
+        status: PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref()),
         result,
         ..run.clone()
     }
@@ -156,4 +153,98 @@ fn mask(indices: &[u32], len: usize) -> Vec<bool> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use datasets::synthetic::{generate, Scenario};
+    use icp_core::sequence::{ScanEstimate, SolveStop};
+    use icp_core::variants::builtin;
+    use nalgebra::{Isometry2, Vector2, Vector3};
+
+    use super::*;
+
+    /// A batch solve of `n` scans whose every twist is `twist`.
+    fn smoothed(n: usize, twist: Vector3<f64>) -> Smoothed {
+        Smoothed {
+            scans: (0..n)
+                .map(|_| ScanEstimate {
+                    pose: Vector3::zeros(),
+                    twist,
+                    cov: Default::default(),
+                })
+                .collect(),
+            steps: Vec::new(),
+            qc: [1.0; 3],
+            em_iterations: 0,
+            stop: SolveStop::Converged,
+        }
+    }
+
+    #[test]
+    fn a_dataset_without_a_sweep_is_refused_and_a_scan_the_sweep_cannot_time_is_named() {
+        let mut ds = generate(&Scenario {
+            n_scans: 3,
+            ..Scenario::rough()
+        })
+        .unwrap();
+        let batch = smoothed(3, Vector3::new(3.0, 0.1, 0.05));
+        assert!(deskewed_scans(&ds, &[0, 1, 2], &batch).is_ok());
+        ds.sweep_s = None;
+        let why = deskewed_scans(&ds, &[0, 1, 2], &batch).unwrap_err();
+        assert!(why.contains("no sweep time (sweep_s)"), "{why}");
+        // A fan from −90°: its returns before bearing 0 have no time in the revolution.
+        ds.sweep_s = Some(0.2);
+        ds.scans[1] = Scan::from_polar(&[5.0, 6.0, 7.0], &[-1.5, 0.0, 1.5]).unwrap();
+        let why = deskewed_scans(&ds, &[0, 1, 2], &batch).unwrap_err();
+        assert!(
+            why.starts_with("scan 1: ") && why.contains("bearing"),
+            "{why}"
+        );
+    }
+
+    #[test]
+    fn a_flagged_pair_keeps_its_run_and_an_ok_one_is_registered_again_from_its_first_result() {
+        let ds = generate(&Scenario {
+            n_scans: 3,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        // Without motion the deskewed scans are the scans (to rounding).
+        let scans = deskewed_scans(&ds, &[0, 1, 2], &smoothed(3, Vector3::zeros())).unwrap();
+        for (a, b) in ds.scans.iter().zip(&scans) {
+            for (p, q) in a.returns().iter().zip(b.returns()) {
+                assert!((p.point - q.point).norm() < 1e-12 * p.range_m);
+            }
+        }
+        let pl = builtin("PL_ICP").unwrap().build().unwrap();
+        let pairs = [0, 1].map(|k| ScanPair {
+            source: k,
+            reference: k + 1,
+        });
+        // Both start 5 cm off the registration of the scans.
+        let off = |k: usize| {
+            let reg = pl
+                .register(&ds.scans[k], &ds.scans[k + 1], Isometry2::identity())
+                .unwrap();
+            let start = Isometry2::new(Vector2::new(0.05, 0.0), 0.0) * reg.t_ref_src;
+            (reg, PairRun::ok_for_test(start, None))
+        };
+        let (right, ok) = off(0);
+        let (_, mut flagged) = off(1);
+        flagged.status = PairStatus::Degenerate { cond_ratio: 1e-4 };
+        let runs = register_again(
+            &pl,
+            CovarianceMode::ClosedForm,
+            (&[0, 1, 2], &scans),
+            &pairs,
+            &[ok.clone(), flagged.clone()],
+        );
+        assert_eq!(runs[1].status, flagged.status);
+        assert_eq!(runs[1].result, flagged.result);
+        assert_eq!(runs[0].status, PairStatus::Ok);
+        let again = runs[0].result.as_ref().unwrap().t_ref_src;
+        assert!((again.translation.vector - right.t_ref_src.translation.vector).norm() < 1e-3);
+        assert!(again != ok.result.unwrap().t_ref_src);
+    }
 }
