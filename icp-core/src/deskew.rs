@@ -99,7 +99,8 @@ impl Sweep {
 
     /// Each return's time after the reference time, seconds, from its bearing. A bearing
     /// outside `[start, start + span]` is an error (the sweep does not say when it was taken),
-    /// as is a duration or span out of its domain.
+    /// as is a duration or span out of its domain; without a duration every return is at the
+    /// reference time, whatever its bearing (a fan cast from one pose).
     pub fn offsets_s(&self, scan: &Scan) -> Result<Vec<f64>, IcpError> {
         if !(self.duration_s.is_finite() && self.duration_s >= 0.0) {
             return Err(IcpError::InvalidParameter {
@@ -115,6 +116,9 @@ impl Sweep {
                 value: self.span_rad,
                 reason: "must be finite and positive, from a finite start bearing",
             });
+        }
+        if self.duration_s == 0.0 {
+            return Ok(vec![0.0; scan.len()]);
         }
         scan.returns()
             .iter()
@@ -383,6 +387,8 @@ mod tests {
             })
         ));
         assert!(Sweep::revolution(-0.1).offsets_s(&scan).is_err());
+        // Without a sweep the fan is one instant.
+        assert_eq!(Sweep::revolution(0.0).offsets_s(&fan).unwrap(), [0.0, 0.0]);
         let offsets = Sweep::revolution(0.2).offsets_s(&scan).unwrap();
         assert_eq!(offsets, [0.2 * 0.5 / TAU, 0.2 * 1.0 / TAU]);
     }

@@ -20,10 +20,11 @@
 //! start `t`; their `sweep_s` is the rotation period `T`. Deskew takes that convention
 //! ([`Sweep::revolution`]): a return at bearing `α ∈ [0, 2π]` was taken `sweep_s · α/2π` after
 //! the scan's timestamp, read from the bearing rather than the index (dropped returns leave
-//! no index), late by less than one beam's time (`T/N`, 0.27 ms on the rough harbour). A scan
-//! with a bearing outside `[0, 2π]` (a fan from a negative bearing, as a ROS scan's
-//! `angle_min` gives) is refused with the scan named rather than timed by a guess, and so is a
-//! dataset that states no sweep (CARMEN, marina).
+//! no index), late by less than one beam's time (`T/N`, 0.27 ms on the rough harbour). With a
+//! sweep (`sweep_s` > 0), a scan with a bearing outside `[0, 2π]` (a fan from a negative
+//! bearing, as a ROS scan's `angle_min` gives) is refused with the scan named rather than timed
+//! by a guess, and so is a dataset that states no sweep (CARMEN, marina); `sweep_s` 0 (the
+//! paper harbour, the corridor's fan) moves nothing.
 //!
 //! # Covariances
 //! The second registration's covariance is its own (closed form, and jackknife where its
