@@ -159,7 +159,7 @@ fn mask(indices: &[u32], len: usize) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use datasets::synthetic::{generate, Scenario};
-    use icp_core::sequence::{ScanEstimate, SolveStop};
+    use icp_core::sequence::{ScanEstimate, ScanShare, SolveStop};
     use icp_core::variants::builtin;
     use nalgebra::{Isometry2, Vector2, Vector3};
 
@@ -179,6 +179,10 @@ mod tests {
             qc: [1.0; 3],
             em_iterations: 0,
             stop: SolveStop::Converged,
+            scan_share: ScanShare {
+                share: 0.0,
+                loops: 0,
+            },
         }
     }
 

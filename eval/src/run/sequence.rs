@@ -307,7 +307,13 @@ fn deskewed<'a>(
     };
     let registrar = setup.variants[v].as_ref();
     let again = |pairs: &[ScanPair], runs: &[PairRun]| {
-        deskew::register_again(registrar, setup.covariance, (run.scans, &scans), pairs, runs)
+        deskew::register_again(
+            registrar,
+            setup.covariance,
+            (run.scans, &scans),
+            pairs,
+            runs,
+        )
     };
     let lag1 = again(run.pairs, own.lag1);
     let across = own.across.map(|(lagged, runs)| {
@@ -380,9 +386,10 @@ fn registrations(
     let local = |k: usize| scans.binary_search(&k).ok();
     let lag1 = own.lag1;
     let consecutive = pairs.iter().zip(lag1).map(|(p, r)| (*p, None, r));
-    let across = own.across.into_iter().flat_map(|(lagged, runs)| {
-        lagged.iter().zip(runs).map(|(p, r)| (p.pair, Some(p), r))
-    });
+    let across = own
+        .across
+        .into_iter()
+        .flat_map(|(lagged, runs)| lagged.iter().zip(runs).map(|(p, r)| (p.pair, Some(p), r)));
     let mut regs = Vec::new();
     let mut left_out = LeftOut::default();
     for (pair, lag, run) in consecutive.chain(across) {
