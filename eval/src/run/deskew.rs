@@ -4,8 +4,10 @@
 //! After the batch smoother of a variant, every scan of the run is deskewed with that scan's
 //! smoothed body twist ([`icp_core::deskew`]): each return moved to where the scanner saw it
 //! from at the scan's time. Every pair the variant registered (consecutive and across lags)
-//! is registered once more on the deskewed scans, from its first result and without the
-//! returns its detector of moving returns left out (`run::moving`), and the sequence module
+//! is registered once more on the deskewed scans, from its first result and as that result
+//! was registered: without the returns its detector of moving returns left out where the
+//! result is the registration without them (`run::moving`; where that registration jumped and
+//! the start stood, with every return), and the sequence module
 //! smooths those registrations again in batch. A pair the variant flagged keeps its run (the
 //! smoother leaves it out, and the estimator's pair keeps the flag); an ok pair takes the
 //! second registration and its own verdict ([`PairStatus::of`], with the first's global check
@@ -115,11 +117,11 @@ fn again(
         return run.clone();
     };
     let (source, reference) = match &run.left_out {
-        Some(l) => (
+        Some(l) if l.result_without => (
             source.without(&mask(&l.source_indices, source.len())),
             reference.without(&mask(&l.reference_indices, reference.len())),
         ),
-        None => (source.clone(), reference.clone()),
+        _ => (source.clone(), reference.clone()),
     };
     let params = registrar.surface_params();
     let (ss, rs) = (
@@ -250,6 +252,27 @@ mod tests {
         assert_eq!(runs[0].status, PairStatus::Ok);
         let again = runs[0].result.as_ref().unwrap().t_ref_src;
         assert!((again.translation.vector - right.t_ref_src.translation.vector).norm() < 1e-3);
-        assert!(again != ok.result.unwrap().t_ref_src);
+        assert!(again != ok.result.as_ref().unwrap().t_ref_src);
+        // Returns left out count only where the result is the registration without them.
+        let left_out = |result_without: bool| PairRun {
+            left_out: Some(crate::run::left_out::LeftOut {
+                source_indices: (0..60).collect(),
+                result_without,
+                ..Default::default()
+            }),
+            ..ok.clone()
+        };
+        let t = |run: PairRun| {
+            let runs = register_again(
+                &pl,
+                CovarianceMode::ClosedForm,
+                (&[0, 1, 2], &scans),
+                &pairs[..1],
+                &[run],
+            );
+            runs[0].result.as_ref().unwrap().t_ref_src
+        };
+        assert_eq!(t(left_out(false)), again);
+        assert!(t(left_out(true)) != again);
     }
 }

@@ -442,6 +442,7 @@ fn again(
         source_truth: Confusion::of(source, src),
         source_indices: indices(&src.left_out),
         reference_indices: indices(&dst.left_out),
+        result_without: false,
     });
     let Ok(first) = &run.result else { return };
     if src.count() + dst.count() == 0 {
@@ -516,6 +517,9 @@ fn again(
         status
     };
     run.result = result;
+    if let Some(left_out) = run.left_out.as_mut() {
+        left_out.result_without = true;
+    }
 }
 
 /// True when `b` lies farther from `a` than `m` metres or `deg` degrees ([`apart`]).
