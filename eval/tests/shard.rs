@@ -711,3 +711,31 @@ fn sequence_shards_smooth_at_the_merge_as_the_single_run() {
         );
     }
 }
+
+/// `--sequence deskew`: the pairs are registered again on the deskewed scans at the merge,
+/// without the returns each shard's moving-returns stage left out of both scans (carried in
+/// the part files), and the result equals the single run's.
+#[test]
+fn deskew_shards_register_again_at_the_merge_as_the_single_run() {
+    let base = [
+        "run",
+        "--dataset",
+        "synthetic:rough?scans=30",
+        "--variants",
+        "PL_ICP,GICP",
+        "--lags",
+        "2",
+        "--sequence",
+        "batch,deskew",
+        "--quiet",
+        "--no-plots",
+    ];
+    let dir = common::scratch_dir("shard_deskew");
+    for (merged, files) in merged_equal_single(&base, &dir, &[2]) {
+        assert!(files >= 8, "{files} files compared");
+        let sequence = std::fs::read_to_string(merged.join("sequence.csv")).unwrap();
+        // 30 scans for each of PL_ICP+batch, PL_ICP+deskew, GICP+batch, GICP+deskew.
+        assert_eq!(sequence.lines().count(), 1 + 4 * 30);
+        assert!(sequence.lines().any(|l| l.starts_with("GICP+deskew,")));
+    }
+}

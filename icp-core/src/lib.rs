@@ -49,6 +49,7 @@ pub mod assess;
 pub mod bound;
 mod cells;
 pub mod covariance;
+pub mod deskew;
 pub mod error;
 pub mod global;
 pub mod icp;

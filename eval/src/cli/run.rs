@@ -78,9 +78,10 @@ pub(crate) struct RunArgs {
     #[arg(long, default_value_t = 1)]
     pub(crate) lags: usize,
     /// Also smooth each variant V's registrations (with `--lags`, those across lags too) over
-    /// the whole scan sequence: estimators `V+batch` (every scan from the whole run) and
-    /// `V+causal` (each scan from the scans up to it), and `sequence.csv`. Comma-separated.
-    /// See docs/sequence.md.
+    /// the whole scan sequence: estimators `V+batch` (every scan from the whole run),
+    /// `V+causal` (each scan from the scans up to it) and `V+deskew` (the pairs registered
+    /// again on scans deskewed by `V+batch`'s twists; needs the dataset's sweep), and
+    /// `sequence.csv`. Comma-separated. See docs/sequence.md.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) sequence: Vec<SequenceMode>,
     /// Output directory.

@@ -17,6 +17,15 @@ pub struct LeftOut {
     /// The source scan's returns left out, by index (what `report.html` draws).
     #[serde(default)]
     pub source_indices: Vec<u32>,
+    /// The reference scan's returns left out, by index.
+    #[serde(default)]
+    pub reference_indices: Vec<u32>,
+    /// Whether the pair's result is its registration without these returns: false where that
+    /// registration jumped from its start while the kept returns fit the start, so the start
+    /// (registered with every return) stands (`run::moving`). What `--sequence deskew` follows
+    /// when it registers the pair a second time.
+    #[serde(default)]
+    pub result_without: bool,
 }
 
 /// A scan drawn with the returns its variant's detector left out (`report.html`).

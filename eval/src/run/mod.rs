@@ -5,6 +5,7 @@
 //! elsewhere.
 
 pub mod covariance;
+pub mod deskew;
 pub mod estimates;
 pub mod extended;
 pub mod init;
@@ -20,6 +21,7 @@ pub mod restarts;
 pub mod runner;
 pub mod sampled;
 pub mod sequence;
+pub mod sequence_records;
 pub mod sequence_setup;
 pub mod setup;
 pub mod start_gate;

@@ -19,16 +19,18 @@
 //! flagged `contradicted` ([`PairStatus::Contradicted`]): smoothing never clears a flag, and
 //! never hides a disagreement it cannot resolve. The causal estimator uses
 //! the `Qc` and the scans' share of the registrations' errors the batch one estimated from the
-//! whole run (a vessel would carry them over from earlier data). Smoothing runs where the report is made (`pipeline::report`), so a
+//! whole run (a vessel would carry them over from earlier data). `V+deskew` smooths in batch
+//! again the registrations made once more on scans deskewed by the batch estimator's twists
+//! (the `deskew` module). Smoothing runs where the report is made (`pipeline::report`), so a
 //! sharded run smooths at the merge, on the same registrations as a single run.
 
+use std::borrow::Cow;
+
 use datasets::{Dataset, ScanPair};
-use icp_core::motion::{wrap_360, wrap_deg};
 use icp_core::sequence::{
     self, Mode, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed, SmootherOptions,
 };
 use icp_core::termination::StopReason;
-use icp_core::BearingSense;
 use icp_core::{Covariance, IcpError, Registration};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
@@ -38,48 +40,15 @@ use std::time::Instant;
 use crate::data;
 use crate::measure::cycles;
 use crate::run::covariance::closed_form_inflation;
+use crate::run::deskew;
 use crate::run::extended;
-use crate::run::lags::LagRuns;
+use crate::run::lags::{LagPair, LagRuns};
 use crate::run::runner::{run_scans, PairRun, Runs};
+use crate::run::sequence_records::records;
+pub use crate::run::sequence_records::SequenceRecord;
 use crate::run::sequence_setup::SequenceMode;
 use crate::run::setup::EvalSetup;
 use crate::run::status::{apart, PairStatus, CHI2_3_AT_999};
-
-/// One row of `sequence.csv`: a scan's fused state as one smoothed estimator has it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SequenceRecord {
-    /// The estimator, `V+batch` or `V+causal`.
-    pub method: String,
-    /// Scan index in the dataset.
-    pub scan: usize,
-    /// Scan time, s.
-    pub time_s: f64,
-    /// Whether an unflagged registration reaches the scan's estimate: for `V+causal` one
-    /// spanning the step into the scan (scan 0: the first step), for `V+batch` one spanning a
-    /// step next to it. Else the estimate is the prior's extrapolation alone.
-    pub supported: bool,
-    /// Position in the first scan's frame, m.
-    pub x_m: f64,
-    pub y_m: f64,
-    pub x_sigma_m: f64,
-    pub y_sigma_m: f64,
-    /// Heading: the first pair's reference heading (0 without a reference) plus the fused turn
-    /// since the first scan, degrees in [0, 360), clockwise.
-    pub hdg_deg: f64,
-    pub hdg_sigma_deg: f64,
-    /// Speed over ground from the fused twist, m/s.
-    pub sog_mps: f64,
-    pub sog_sigma_mps: f64,
-    /// Course over ground: the heading plus the drift angle of the fused twist, degrees.
-    pub cog_deg: f64,
-    pub cog_sigma_deg: f64,
-    /// Rate of turn, degrees per second, clockwise positive.
-    pub rot_dps: f64,
-    pub rot_sigma_dps: f64,
-    /// The fused twist along the scan frame's x and y, m/s.
-    pub surge_mps: f64,
-    pub sway_mps: f64,
-}
 
 /// What one smoothed estimator did, in `summary.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -113,7 +82,8 @@ pub struct SequenceSummary {
     #[serde(default)]
     pub solve_stop: Option<String>,
     /// Wall time of its smoothing, ms: the batch estimator's with the estimation of `Qc` and
-    /// of the scans' share, the causal one's own pass (it takes those from the batch one).
+    /// of the scans' share, the causal one's own pass (it takes those from the batch one), the
+    /// deskew one's deskewing, registrations again and smoothing.
     #[serde(default)]
     pub time_ms: Option<f64>,
     /// Whether `sequence.csv`'s headings and courses start from the reference's heading at the
@@ -157,22 +127,17 @@ pub fn smooth(
         .map(|&v| {
             let inflation = closed_form_inflation(&setup.variants[v].spec().metric);
             let cov_of = |run: &PairRun| covariance_of(setup, inflation, run);
-            let (regs, left_out) = registrations(pairs, &scans, runs, lagged, v, &cov_of);
+            let own = VariantRuns {
+                lag1: &runs.per_variant[v],
+                across: lagged.map(|l| (&l.pairs[..], &l.runs.per_variant[v][..])),
+            };
             let run = Scans {
                 ds,
                 pairs,
                 scans: &scans,
                 times: &times,
             };
-            smooth_variant(
-                &run,
-                setup,
-                &runs.per_variant[v],
-                v,
-                &regs,
-                left_out,
-                &cov_of,
-            )
+            smooth_variant(&run, setup, own, v, &cov_of)
         })
         .collect();
     let mut out = SequenceRuns {
@@ -196,21 +161,63 @@ struct Scans<'a> {
     times: &'a [f64],
 }
 
-/// Variant `v` (its own runs `own`) smoothed from `regs` in each mode: the batch solve
-/// estimates `Qc`, which the causal one takes.
+/// A variant's own registrations: consecutive (`lag1`, by the run's pairs) and across lags.
+#[derive(Clone, Copy)]
+struct VariantRuns<'a> {
+    lag1: &'a [PairRun],
+    across: Option<(&'a [LagPair], &'a [PairRun])>,
+}
+
+/// Why a smoothed estimator gave nothing: its smoother's error (as `summary.json` has it), or
+/// the deskew's.
+#[derive(Clone, Debug, thiserror::Error)]
+enum Failure {
+    #[error("{0}")]
+    Smoother(sequence::SequenceError),
+    #[error("deskew: {0}")]
+    Deskew(String),
+}
+
+impl Failure {
+    /// The reason a pair of the estimator gives.
+    fn why(&self) -> String {
+        match self {
+            Self::Smoother(e) => format!("the sequence smoother: {e}"),
+            Self::Deskew(_) => self.to_string(),
+        }
+    }
+}
+
+/// One estimator's solve: its estimates (or why none), the variant's registrations it rests
+/// on (the consecutive ones: the pairs' own) and how many it used and left out.
+struct Solve<'a> {
+    out: Result<Smoothed, Failure>,
+    own: Cow<'a, [PairRun]>,
+    registrations: usize,
+    left_out: LeftOut,
+}
+
+/// Variant `v` (its own runs `own`) smoothed in each mode: the batch solve estimates `Qc` and
+/// the scans' share of the registrations' errors, which the causal one takes; the deskew one
+/// starts from the batch one's twists and estimates its own.
 fn smooth_variant(
     run: &Scans<'_>,
     setup: &EvalSetup,
-    own: &[PairRun],
+    own: VariantRuns<'_>,
     v: usize,
-    regs: &[SequenceRegistration],
-    left_out: LeftOut,
     cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> Vec<Estimator> {
+    let (regs, left_out) = registrations(run.pairs, run.scans, own, cov_of);
     let options = SmootherOptions::default();
     let started = Instant::now();
-    let batch = sequence::smooth(run.times, regs, Mode::Batch, &options);
+    let batch = sequence::smooth(run.times, &regs, Mode::Batch, &options);
     let batch_ms = started.elapsed().as_secs_f64() * 1e3;
+    let solve = |out| Solve {
+        out,
+        own: Cow::Borrowed(own.lag1),
+        registrations: regs.len(),
+        left_out,
+    };
     setup
         .sequence
         .modes()
@@ -218,38 +225,55 @@ fn smooth_variant(
         .map(|&mode| {
             let name = format!("{}{}", setup.variants[v].name(), mode.suffix());
             let started = Instant::now();
-            let out = match (mode, &batch) {
-                (SequenceMode::Batch, _) | (_, Err(_)) => batch.clone(),
-                (SequenceMode::Causal, Ok(b)) => sequence::smooth(
-                    run.times,
-                    regs,
-                    Mode::Causal { lag_scans: 0 },
-                    &SmootherOptions {
-                        process_noise: ProcessNoise::Fixed(b.qc),
-                        scan_errors: ScanErrors::Share(b.scan_share.share),
-                        ..options
-                    },
+            let solved = match (mode, &batch) {
+                (_, Err(e)) => solve(Err(Failure::Smoother(e.clone()))),
+                (SequenceMode::Batch, Ok(b)) => solve(Ok(b.clone())),
+                (SequenceMode::Causal, Ok(b)) => solve(
+                    sequence::smooth(
+                        run.times,
+                        &regs,
+                        Mode::Causal { lag_scans: 0 },
+                        &SmootherOptions {
+                            process_noise: ProcessNoise::Fixed(b.qc),
+                            scan_errors: ScanErrors::Share(b.scan_share.share),
+                            ..options
+                        },
+                    )
+                    .map_err(Failure::Smoother),
                 ),
+                (SequenceMode::Deskew, Ok(b)) => deskewed(run, setup, own, v, b, cov_of),
             };
             let time_ms = match mode {
                 SequenceMode::Batch => batch_ms,
-                SequenceMode::Causal => started.elapsed().as_secs_f64() * 1e3,
+                _ => started.elapsed().as_secs_f64() * 1e3,
             };
+            // What the batch solve estimated, the causal estimator's; the deskew one's own.
+            let em = match mode {
+                SequenceMode::Deskew => solved.out.as_ref().ok(),
+                _ => batch.as_ref().ok(),
+            };
+            let out = &solved.out;
             Estimator {
-                runs: pair_runs(run.pairs, run.scans, own, &out, cov_of),
-                records: match &out {
-                    Ok(s) => records(run, &name, mode, s),
+                runs: pair_runs(run.pairs, run.scans, &solved.own, out, cov_of),
+                records: match out {
+                    Ok(s) => records(
+                        run.ds,
+                        (run.scans, run.times),
+                        first_heading_deg(run),
+                        (&name, mode),
+                        s,
+                    ),
                     Err(_) => Vec::new(),
                 },
                 summary: SequenceSummary {
                     method: name,
-                    registrations: regs.len(),
-                    left_out: left_out.flagged + left_out.loop_open,
-                    left_out_loop_open: left_out.loop_open,
-                    qc: batch.as_ref().ok().map(|b| b.qc),
-                    em_rounds: batch.as_ref().map_or(0, |b| b.em_iterations),
-                    scan_share: batch.as_ref().ok().map(|b| b.scan_share.share),
-                    scan_share_loops: batch.as_ref().map_or(0, |b| b.scan_share.loops),
+                    registrations: solved.registrations,
+                    left_out: solved.left_out.flagged + solved.left_out.loop_open,
+                    left_out_loop_open: solved.left_out.loop_open,
+                    qc: em.map(|b| b.qc),
+                    em_rounds: em.map_or(0, |b| b.em_iterations),
+                    scan_share: em.map(|b| b.scan_share.share),
+                    scan_share_loops: em.map_or(0, |b| b.scan_share.loops),
                     solve_stop: out.as_ref().ok().map(|s| s.stop.name().to_owned()),
                     time_ms: Some(time_ms),
                     heading_from_reference: first_heading_deg(run).is_some(),
@@ -258,6 +282,56 @@ fn smooth_variant(
             }
         })
         .collect()
+}
+
+/// `V+deskew`: the run's scans deskewed by the twists of `batch`, the variant's registrations
+/// `own` made again on them once (the `deskew` module), smoothed again in batch.
+fn deskewed<'a>(
+    run: &Scans<'_>,
+    setup: &EvalSetup,
+    own: VariantRuns<'_>,
+    v: usize,
+    batch: &Smoothed,
+    cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
+) -> Solve<'a> {
+    let scans = match deskew::deskewed_scans(run.ds, run.scans, batch) {
+        Ok(scans) => scans,
+        Err(why) => {
+            return Solve {
+                out: Err(Failure::Deskew(why)),
+                own: Cow::Owned(own.lag1.to_vec()),
+                registrations: 0,
+                left_out: LeftOut::default(),
+            }
+        }
+    };
+    let registrar = setup.variants[v].as_ref();
+    let again = |pairs: &[ScanPair], runs: &[PairRun]| {
+        deskew::register_again(
+            registrar,
+            setup.covariance,
+            (run.scans, &scans),
+            pairs,
+            runs,
+        )
+    };
+    let lag1 = again(run.pairs, own.lag1);
+    let across = own.across.map(|(lagged, runs)| {
+        let pairs: Vec<ScanPair> = lagged.iter().map(|p| p.pair).collect();
+        (lagged, again(&pairs, runs))
+    });
+    let again = VariantRuns {
+        lag1: &lag1,
+        across: across.as_ref().map(|(l, r)| (*l, &r[..])),
+    };
+    let (regs, left_out) = registrations(run.pairs, run.scans, again, cov_of);
+    let out = sequence::smooth(run.times, &regs, Mode::Batch, &SmootherOptions::default());
+    Solve {
+        out: out.map_err(Failure::Smoother),
+        registrations: regs.len(),
+        left_out,
+        own: Cow::Owned(lag1),
+    }
 }
 
 /// The scans' times: their timestamps where every scan has one, else their index times the
@@ -292,26 +366,22 @@ struct LeftOut {
     loop_open: usize,
 }
 
-/// Variant `v`'s registrations usable by the smoother (status ok, bounded covariance by
+/// A variant's registrations `own` usable by the smoother (status ok, bounded covariance by
 /// `cov_of`, and across lags a loop through ok consecutive registrations that closes or says
 /// nothing: `cycles::loop_open`), in the run's scan numbering, and how many were left out.
 fn registrations(
     pairs: &[ScanPair],
     scans: &[usize],
-    runs: &Runs,
-    lagged: Option<&LagRuns>,
-    v: usize,
+    own: VariantRuns<'_>,
     cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> (Vec<SequenceRegistration>, LeftOut) {
     let local = |k: usize| scans.binary_search(&k).ok();
-    let lag1 = &runs.per_variant[v];
+    let lag1 = own.lag1;
     let consecutive = pairs.iter().zip(lag1).map(|(p, r)| (*p, None, r));
-    let across = lagged.into_iter().flat_map(|l| {
-        l.pairs
-            .iter()
-            .zip(&l.runs.per_variant[v])
-            .map(|(p, r)| (p.pair, Some(p), r))
-    });
+    let across = own
+        .across
+        .into_iter()
+        .flat_map(|(lagged, runs)| lagged.iter().zip(runs).map(|(p, r)| (p.pair, Some(p), r)));
     let mut regs = Vec::new();
     let mut left_out = LeftOut::default();
     for (pair, lag, run) in consecutive.chain(across) {
@@ -346,7 +416,7 @@ fn pair_runs(
     pairs: &[ScanPair],
     scans: &[usize],
     own: &[PairRun],
-    out: &Result<Smoothed, sequence::SequenceError>,
+    out: &Result<Smoothed, Failure>,
     cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> Vec<PairRun> {
     pairs
@@ -355,9 +425,7 @@ fn pair_runs(
         .map(|(pair, own)| {
             let step = scans.binary_search(&pair.source).unwrap_or(0);
             let result = match out {
-                Err(e) => Err(IcpError::NoEstimate {
-                    why: format!("the sequence smoother: {e}"),
-                }),
+                Err(e) => Err(IcpError::NoEstimate { why: e.why() }),
                 Ok(s) if !s.steps[step].supported => Err(IcpError::NoEstimate {
                     why: "the sequence smoother: no registration left spans the step (prior only)"
                         .to_owned(),
@@ -435,71 +503,6 @@ fn first_heading_deg(run: &Scans<'_>) -> Option<f64> {
         ([a, b, ..], [ta, tb, ..]) => data::motion(run.ds, *a, *b, tb - ta).map(|m| m.hdg0_deg),
         _ => None,
     }
-}
-
-/// Whether scan `k`'s estimate in `mode` rests on a registration (see
-/// [`SequenceRecord::supported`]).
-fn scan_supported(s: &Smoothed, mode: SequenceMode, k: usize) -> bool {
-    let step = |i: usize| s.steps.get(i).is_some_and(|e| e.supported);
-    match mode {
-        SequenceMode::Causal => step(k.max(1) - 1),
-        SequenceMode::Batch => step(k) || (k > 0 && step(k - 1)),
-    }
-}
-
-/// `sequence.csv`'s rows of one estimator.
-fn records(run: &Scans<'_>, name: &str, mode: SequenceMode, s: &Smoothed) -> Vec<SequenceRecord> {
-    let (ds, scans, times) = (run.ds, run.scans, run.times);
-    // Heading clockwise: a turn θ of the scan frame (counter-clockwise bearings) is −θ.
-    let sign = match ds.bearing_sense {
-        BearingSense::CounterClockwise => -1.0,
-        BearingSense::Clockwise => 1.0,
-    };
-    let hdg0 = first_heading_deg(run).unwrap_or(0.0);
-    scans
-        .iter()
-        .zip(times)
-        .zip(&s.scans)
-        .enumerate()
-        .map(|(k, ((&scan, &time_s), e))| {
-            let c = &e.cov;
-            let (u, v) = (e.twist.x, e.twist.y);
-            let speed = u.hypot(v);
-            let (var_sog, var_drift) = if speed > 0.0 {
-                let (gu, gv) = (u / speed, v / speed);
-                let (du, dv) = (-v / (speed * speed), u / (speed * speed));
-                (
-                    gu * gu * c[(3, 3)] + 2.0 * gu * gv * c[(3, 4)] + gv * gv * c[(4, 4)],
-                    du * du * c[(3, 3)] + 2.0 * du * dv * c[(3, 4)] + dv * dv * c[(4, 4)],
-                )
-            } else {
-                (c[(3, 3)] + c[(4, 4)], 0.0)
-            };
-            let hdg_deg = wrap_360(hdg0 + sign * e.pose.z.to_degrees());
-            let drift_deg = sign * v.atan2(u).to_degrees();
-            SequenceRecord {
-                method: name.to_owned(),
-                scan,
-                time_s,
-                supported: scan_supported(s, mode, k),
-                x_m: e.pose.x,
-                y_m: e.pose.y,
-                x_sigma_m: c[(0, 0)].max(0.0).sqrt(),
-                y_sigma_m: c[(1, 1)].max(0.0).sqrt(),
-                hdg_deg,
-                hdg_sigma_deg: c[(2, 2)].max(0.0).sqrt().to_degrees(),
-                sog_mps: speed,
-                sog_sigma_mps: var_sog.max(0.0).sqrt(),
-                cog_deg: wrap_360(hdg_deg + wrap_deg(drift_deg)),
-                // The heading and the drift angle, taken as independent.
-                cog_sigma_deg: (c[(2, 2)] + var_drift).max(0.0).sqrt().to_degrees(),
-                rot_dps: sign * e.twist.z.to_degrees(),
-                rot_sigma_dps: c[(5, 5)].max(0.0).sqrt().to_degrees(),
-                surge_mps: u,
-                sway_mps: v,
-            }
-        })
-        .collect()
 }
 
 #[cfg(test)]

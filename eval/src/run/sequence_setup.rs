@@ -12,14 +12,18 @@ pub enum SequenceMode {
     Batch,
     /// Every scan from the scans up to it only (what a vessel has live).
     Causal,
+    /// Every scan from the whole run, with the registrations made again on scans deskewed by
+    /// the batch smoother's twists (the `deskew` module; needs the dataset's `sweep_s`).
+    Deskew,
 }
 
 impl SequenceMode {
-    /// The suffix of its estimators' names: `V+batch`, `V+causal`.
+    /// The suffix of its estimators' names: `V+batch`, `V+causal`, `V+deskew`.
     pub fn suffix(self) -> &'static str {
         match self {
             Self::Batch => "+batch",
             Self::Causal => "+causal",
+            Self::Deskew => "+deskew",
         }
     }
 }

@@ -42,6 +42,7 @@ mod band;
 mod batch;
 mod causal;
 mod factors;
+pub(crate) use factors::{exp_from, wrap_rad};
 mod noise;
 mod scan_errors;
 mod system;

@@ -124,10 +124,9 @@ pub fn register_again(
                         source: src.count(),
                         reference: dst.count(),
                         source_truth: Confusion::of(&ds.scans[pair.source], src),
-                        source_indices: (0..)
-                            .zip(&src.left_out)
-                            .filter_map(|(i, &out)| out.then_some(i))
-                            .collect(),
+                        source_indices: indices(&src.left_out),
+                        reference_indices: indices(&dst.left_out),
+                        result_without: false,
                     });
                     if run.result.is_ok() && src.count() + dst.count() > 0 {
                         let (ms, mr) = (&masked[&pair.source], &masked[&pair.reference]);
@@ -265,6 +264,17 @@ pub(super) fn again(
         status
     };
     run.result = result;
+    if let Some(left_out) = run.left_out.as_mut() {
+        left_out.result_without = true;
+    }
+}
+
+/// The indices of the returns marked in `left_out`.
+fn indices(left_out: &[bool]) -> Vec<u32> {
+    (0..)
+        .zip(left_out)
+        .filter_map(|(i, &out)| out.then_some(i))
+        .collect()
 }
 
 /// True when `b` lies farther from `a` than `m` metres or `deg` degrees ([`apart`]).
