@@ -265,6 +265,18 @@ pub(crate) fn accumulate<const R: usize, S: Sink>(
     }
 }
 
+/// Adds a Gaussian on one block (`r` its residual, `info` its information) into `sink`;
+/// returns its cost.
+fn add_gaussian<S: Sink>(
+    sink: &mut S,
+    block: Option<usize>,
+    r: &Vector3<f64>,
+    info: &Matrix3<f64>,
+) -> f64 {
+    accumulate(sink, &[(block, Matrix3::identity())], r, info);
+    0.5 * r.dot(&(info * r))
+}
+
 /// The factors of a run: its timestamps, registrations, process noise and robust threshold.
 #[derive(Clone, Debug)]
 pub(crate) struct Model<'a> {
@@ -327,9 +339,7 @@ impl Model<'_> {
         let Some((mean, info)) = self.twist0 else {
             return 0.0;
         };
-        let r = est.twists[0] - mean;
-        accumulate(sink, &[(layout.twist(0), Matrix3::identity())], &r, &info);
-        0.5 * r.dot(&(info * r))
+        add_gaussian(sink, layout.twist(0), &(est.twists[0] - mean), &info)
     }
 
     /// Linearises the zero-mean prior on scan `k`'s error, if the model has scan errors, into
@@ -344,14 +354,7 @@ impl Model<'_> {
         let Some(infos) = self.scan_errors else {
             return 0.0;
         };
-        let r = est.errors[k];
-        accumulate(
-            sink,
-            &[(layout.error(k), Matrix3::identity())],
-            &r,
-            &infos[k],
-        );
-        0.5 * r.dot(&(infos[k] * r))
+        add_gaussian(sink, layout.error(k), &est.errors[k], &infos[k])
     }
 
     /// Linearises registration `i` (Huber-weighted, IRLS) into `sink`; returns its robust cost.

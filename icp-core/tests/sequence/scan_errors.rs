@@ -7,7 +7,10 @@
 use icp_core::sequence::{smooth, Mode, ScanErrors, SmootherOptions, TwistPrior};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use crate::sim::{linear_options, params, q_matrix, scan_error_covariances, simulate_shared, Run};
+use crate::sim::{
+    assert_last_scans_equal, linear_options, params, q_matrix, scan_error_covariances,
+    simulate_shared, Run,
+};
 
 /// The posterior mean and covariance of `[p_1 … p_n−1, v_0 … v_n−1]` for the linear model
 /// with the registrations' joint covariance `R = E S Eᵀ + (1 − share) Σ`: every registration
@@ -162,10 +165,7 @@ fn linear_gaussian_with_scan_errors_equals_generalised_least_squares() {
         &options,
     )
     .unwrap();
-    let (b, c) = (out.scans.last().unwrap(), causal.scans.last().unwrap());
-    assert!((b.pose - c.pose).abs().max() < 1e-9);
-    assert!((b.twist - c.twist).abs().max() < 1e-9);
-    assert!((b.cov - c.cov).abs().max() < 1e-9);
+    assert_last_scans_equal(&out, &causal);
 }
 
 /// ANEES/3 of the fused steps against the truth, and the RMSE of their surge.

@@ -2,7 +2,7 @@
 //! linear-Gaussian case.
 
 use icp_core::sequence::{
-    Geometry, ProcessNoise, ScanErrors, SequenceRegistration, SmootherOptions, TwistPrior,
+    Geometry, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed, SmootherOptions, TwistPrior,
 };
 use nalgebra::{DMatrix, DVector, Isometry2, Matrix3, SMatrix, Vector2, Vector3};
 use rand::{Rng, SeedableRng};
@@ -311,4 +311,12 @@ pub fn params(t: &Isometry2<f64>) -> Vector3<f64> {
         t.translation.vector.y,
         t.rotation.angle(),
     )
+}
+
+/// The last scan's estimate of two solutions (batch and causal) agree to 1e-9.
+pub fn assert_last_scans_equal(batch: &Smoothed, causal: &Smoothed) {
+    let (b, c) = (batch.scans.last().unwrap(), causal.scans.last().unwrap());
+    assert!((b.pose - c.pose).abs().max() < 1e-9);
+    assert!((b.twist - c.twist).abs().max() < 1e-9);
+    assert!((b.cov - c.cov).abs().max() < 1e-9);
 }
