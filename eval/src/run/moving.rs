@@ -2,7 +2,7 @@
 //! every consecutive pair is registered, each scan's detector runs against its neighbours
 //! (k−L..k+L, chained through the same variant's registrations whose status is `ok`), and
 //! every pair whose scans have returns left out is registered again without them, starting
-//! from its first result ([`again`]). The first result's global check and ambiguity are kept
+//! from its first result (`again`). The first result's global check and ambiguity are kept
 //! (the second starts in its basin). A pair whose evidence is split is flagged `dynamic`,
 //! with both motions in its reason: more of a scan's scene moves than the detector's bar (the
 //! result without the moving returns is kept), or the motion without them lies farther from
@@ -44,7 +44,7 @@ use crate::run::runner::{self, run_scans, Methods, PairRun, RunPlan, Runs};
 use crate::run::status::PairStatus;
 
 /// A jump is split evidence only when the kept returns alone, paired once at the start
-/// ([`local_fit`]), pull it farther than this, m…
+/// ([`local_fit`](icp_core::assess::local_fit)), pull it farther than this, m…
 ///
 /// Chosen on `synthetic:rough` seeds 7, 11 and 13 and `synthetic:corridor` seeds 5 and 21
 /// (the corridor with `--init global --lags 2`), never on seed 2022 or aces, which are the
