@@ -22,7 +22,7 @@
 //! registration that may have slid along a corridor (a wide ambiguity term) widen its scans'
 //! errors, which loosened every other registration of those scans; on the aces log the fused
 //! steps then left 17–41 ok registrations per estimator outside their covariance
-//! (`contradicted`), against 2–3 with the harmonic mean.
+//! (`contradicted`), against 2–13 with the harmonic mean.
 //!
 //! **The share, from the loops the registrations close** (no truth). A registration across a lag
 //! and the chain of consecutive registrations over its span see the same two end scans, whose
