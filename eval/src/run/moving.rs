@@ -133,7 +133,7 @@ pub fn apply(
                 &ProgressBar::hidden(),
             ),
         };
-        let (mut last, once) = rounds(ds, pairs, &images, &chain, &mut chain_runs);
+        let (mut last, once) = rounds(ds, pairs, &images, (&chain, plan), &mut chain_runs);
         let mut last = last.pop().flatten();
         if let Some(last) = last.as_mut() {
             // Each scan's share of the chain's work: its pair's registrations and detections.
@@ -156,18 +156,25 @@ pub fn apply(
             });
         }
     }
-    let (mut found, _) = rounds(ds, pairs, &images, registrars, runs);
+    let (mut found, _) = rounds(ds, pairs, &images, (registrars, plan), runs);
     for (f, p) in found.iter_mut().zip(placed) {
         if p.is_some() {
             *f = p;
         }
     }
-    register_again(ds, pairs, registrars, &found, &made, runs);
+    register_again(ds, pairs, (registrars, plan), &found, &made, runs);
     let unjudged = confirmed(pairs, unjudged, runs);
     flag_isolated(pairs, &unjudged, runs);
     if let Some(lagged) = lagged {
         let lag_pairs: Vec<ScanPair> = lagged.pairs.iter().map(|p| p.pair).collect();
-        register_again(ds, &lag_pairs, registrars, &found, &[], &mut lagged.runs);
+        register_again(
+            ds,
+            &lag_pairs,
+            (registrars, plan),
+            &found,
+            &[],
+            &mut lagged.runs,
+        );
     }
 }
 
@@ -183,15 +190,6 @@ fn isolated(pairs: &[ScanPair], runs: &[PairRun]) -> BTreeMap<usize, PairStatus>
         .filter(|(p, _)| p.reference == p.source + 1)
         .map(|(p, r)| (p.source, &r.status))
         .collect();
-    let apart = |s: &PairStatus| {
-        matches!(
-            s,
-            PairStatus::NoOverlap { .. }
-                | PairStatus::Suspect { .. }
-                | PairStatus::Dynamic { .. }
-                | PairStatus::Failed { .. }
-        )
-    };
     let said = |s: &PairStatus| {
         let kind = serde_json::to_value(s.kind()).expect("a kind serializes");
         format!("{} ({s})", kind.as_str().unwrap_or_default())
@@ -200,7 +198,7 @@ fn isolated(pairs: &[ScanPair], runs: &[PairRun]) -> BTreeMap<usize, PairStatus>
         .iter()
         .filter_map(|(&k, &after)| {
             let before = *steps.get(&k.checked_sub(1)?)?;
-            (apart(before) && apart(after)).then(|| {
+            (another_scene(before) && another_scene(after)).then(|| {
                 let status = PairStatus::Isolated {
                     scan: k,
                     before: said(before),
@@ -212,9 +210,24 @@ fn isolated(pairs: &[ScanPair], runs: &[PairRun]) -> BTreeMap<usize, PairStatus>
         .collect()
 }
 
+/// Whether a registration's flag says its scans do not see one scene (no overlap, suspect,
+/// dynamic, failed); a degenerate or ambiguous registration is weak geometry, not another
+/// scene, and a flag from the loops or the smoother is not the registration's own.
+fn another_scene(status: &PairStatus) -> bool {
+    matches!(
+        status,
+        PairStatus::NoOverlap { .. }
+            | PairStatus::Suspect { .. }
+            | PairStatus::Dynamic { .. }
+            | PairStatus::Failed { .. }
+    )
+}
+
 /// Of each registrar's `unjudged` scans, those where its own registration onto or from the
-/// scan (`runs` of the consecutive `pairs`) is flagged too: the placing registrations alone
-/// can be wrong where the variant is right (on aces they are, at 7 scans of 440).
+/// scan (`runs` of the consecutive `pairs`) is flagged too, as not seeing one scene
+/// ([`another_scene`]): the placing registrations alone can be wrong where the variant is
+/// right (on aces they are, at 7 scans of 440), and the variant's weak geometry on one side
+/// (degenerate, ambiguous) says nothing of what the scan sees.
 fn confirmed(
     pairs: &[ScanPair],
     unjudged: Vec<BTreeMap<usize, PairStatus>>,
@@ -227,7 +240,7 @@ fn confirmed(
             let flagged: BTreeSet<usize> = pairs
                 .iter()
                 .zip(variant_runs)
-                .filter(|(p, r)| p.reference == p.source + 1 && r.status.is_failure())
+                .filter(|(p, r)| p.reference == p.source + 1 && another_scene(&r.status))
                 .flat_map(|(p, _)| [p.source, p.reference])
                 .collect();
             scans
@@ -294,7 +307,7 @@ fn rounds(
     ds: &Dataset,
     pairs: &[ScanPair],
     images: &BTreeMap<usize, RangeImage>,
-    registrars: &[Box<dyn Registrar>],
+    (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
     runs: &mut Runs,
 ) -> (Vec<Option<Detections>>, Vec<Option<Detections>>) {
     let own = |r: &dyn Registrar| {
@@ -317,7 +330,7 @@ fn rounds(
             .zip(registrars)
             .map(|(d, r)| d.clone().filter(|_| own(r.as_ref()) > round + 1))
             .collect();
-        register_again(ds, pairs, registrars, &later, &[], runs);
+        register_again(ds, pairs, (registrars, plan), &later, &[], runs);
         for ((times, with), d) in registered.iter_mut().zip(&later) {
             if d.is_some() {
                 *times += 1;

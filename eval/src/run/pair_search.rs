@@ -24,7 +24,7 @@ use icp_core::global::{
     score_at, Above, GlobalGuess, GlobalMatcher, GlobalParams, GlobalWorkspace, GridPool,
     SourceSearch,
 };
-use icp_core::{IcpError, Prepared, Registration, Scan};
+use icp_core::{IcpError, Prepared, Registration, Scan, SurfaceParams, Surfaces};
 use nalgebra::Isometry2;
 
 use crate::run::status::{clearly_better, GlobalCheck};
@@ -171,6 +171,57 @@ impl<'w> Searched<'w> {
     }
 }
 
+/// Whether a registration moved from `checked` (the pose its pair's search assessed) to `now`
+/// beyond the peak the ambiguity lattice judges as one place ([`AmbiguityParams::peak_radius_m`]
+/// in translation, the lattice's rotations either side, [`AmbiguityParams::rotation_steps`] ×
+/// [`AmbiguityParams::rotation_step_deg`], in rotation): then the check's score and the
+/// lattice around the old pose no longer describe it. Within the peak the answers are the
+/// old pose's neighbours' (the lattice is centred on the lattice pose nearest the result).
+pub fn left_the_peak(checked: &Isometry2<f64>, now: &Isometry2<f64>) -> bool {
+    let lattice = AmbiguityParams::default();
+    let (apart_m, apart_deg) = crate::run::status::apart(checked, now);
+    apart_m > lattice.peak_radius_m
+        || apart_deg > lattice.rotation_steps as f64 * lattice.rotation_step_deg
+}
+
+/// The global check and ambiguity of `reg`, a registration of `source` onto `reference` made
+/// after the pair's own search was given back (the moving-returns stage's second
+/// registration, `run::moving`): from a search of their own, with the surface estimates of
+/// the default parameters, as the pair's search was made, so the answers are those the pair's
+/// search gives a result at that pose. `check` and `ambiguity` say which the plan asks for;
+/// a search that cannot be made answers neither, as a pair's does.
+pub fn assess_alone(
+    (source, reference): (&Scan, &Scan),
+    params: &GlobalParams,
+    (check, ambiguity): (bool, bool),
+    reg: &Registration,
+) -> (
+    Option<GlobalCheck>,
+    Option<Result<Ambiguity, AmbiguityProblem>>,
+) {
+    let default = SurfaceParams::default();
+    let (source_surfaces, reference_surfaces) = (
+        Surfaces::estimate(source, &default),
+        Surfaces::estimate(reference, &default),
+    );
+    let mut workspace = GlobalWorkspace::default();
+    let Ok(searched) = Searched::new(
+        Prepared::new(reference, &reference_surfaces),
+        Prepared::new(source, &source_surfaces),
+        params,
+        false,
+        &mut workspace,
+        &mut GridPool::default(),
+    ) else {
+        return (None, None);
+    };
+    let checked = check
+        .then(|| searched.check_all(&[reg], source).pop())
+        .flatten();
+    let assessed = ambiguity.then(|| searched.ambiguity(reg, source)).flatten();
+    (checked, assessed)
+}
+
 #[cfg(test)]
 mod tests {
     use datasets::synthetic::{generate, Scenario};
@@ -246,5 +297,77 @@ mod tests {
         expected.reverse();
         let together = search(scans(), &params, &mut workspace).check_all(&reversed, source);
         assert_eq!(together, expected);
+    }
+
+    /// A registration assessed alone (after its pair's search was given back) gets the check
+    /// and the ambiguity the pair's search gives it, and only what the plan asks for.
+    #[test]
+    fn assessed_alone_as_by_the_pairs_search() {
+        let ds = generate(&Scenario {
+            n_scans: 2,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let pair = ds.consecutive_pairs().0[0];
+        let (source, reference) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+        let surfaces = |scan: &Scan| Surfaces::estimate(scan, &SurfaceParams::default());
+        let (source_surfaces, reference_surfaces) = (surfaces(source), surfaces(reference));
+        let registered = builtin("PL_ICP")
+            .unwrap()
+            .build()
+            .unwrap()
+            .register_prepared(
+                &mut Workspace::default(),
+                Prepared::new(source, &source_surfaces),
+                Prepared::new(reference, &reference_surfaces),
+                Isometry2::identity(),
+            )
+            .unwrap();
+        let params = GlobalParams::default();
+        for (x, deg) in [(0.0, 0.0), (0.4, 0.0), (0.0, 2.0), (2.0, 30.0)] {
+            // Conditioning not known: the ambiguity is assessed, as for a weak one.
+            let reg = Registration {
+                t_ref_src: registered.t_ref_src
+                    * Isometry2::new(Vector2::new(x, 0.0), f64::to_radians(deg)),
+                conditioning: None,
+                ..registered
+            };
+            let mut workspace = GlobalWorkspace::default();
+            let searched = Searched::new(
+                Prepared::new(reference, &reference_surfaces),
+                Prepared::new(source, &source_surfaces),
+                &params,
+                false,
+                &mut workspace,
+                &mut GridPool::default(),
+            )
+            .unwrap();
+            let by_pair = (
+                Some(searched.check_all(&[&reg], source)[0]),
+                searched.ambiguity(&reg, source),
+            );
+            assert!(by_pair.1.is_some());
+            let scans = (source, reference);
+            assert_eq!(assess_alone(scans, &params, (true, true), &reg), by_pair);
+            assert_eq!(
+                assess_alone(scans, &params, (false, true), &reg),
+                (None, by_pair.1)
+            );
+            assert_eq!(
+                assess_alone(scans, &params, (true, false), &reg),
+                (by_pair.0, None)
+            );
+        }
+    }
+
+    /// The peak: 0.15 m and 1° (the lattice's rotations either side) around the pose checked.
+    #[test]
+    fn a_result_leaves_the_peak_beyond_its_radius_or_the_lattices_rotations() {
+        let at = |x: f64, deg: f64| Isometry2::new(Vector2::new(x, 0.0), deg.to_radians());
+        let checked = at(1.0, 10.0);
+        assert!(!left_the_peak(&checked, &checked));
+        assert!(!left_the_peak(&checked, &at(1.14, 10.9)));
+        assert!(left_the_peak(&checked, &at(1.16, 10.0)));
+        assert!(left_the_peak(&checked, &at(1.0, 11.1)));
     }
 }

@@ -21,7 +21,8 @@ use rayon::prelude::*;
 
 use super::{Detections, PULL_APART_DEG, PULL_APART_M};
 use crate::run::left_out::{Confusion, LeftOut};
-use crate::run::runner::{PairRun, Runs};
+use crate::run::pair_search::{assess_alone, left_the_peak};
+use crate::run::runner::{PairRun, RunPlan, Runs};
 use crate::run::status::{apart, PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
 
 /// Pairs whose masked scans are held at once (as the runner's blocks of first registrations).
@@ -70,7 +71,7 @@ pub struct Made {
 pub fn register_again(
     ds: &Dataset,
     pairs: &[ScanPair],
-    registrars: &[Box<dyn Registrar>],
+    (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
     detections: &[Option<Detections>],
     made: &[Option<Made>],
     runs: &mut Runs,
@@ -131,10 +132,11 @@ pub fn register_again(
                     if run.result.is_ok() && src.count() + dst.count() > 0 {
                         let (ms, mr) = (&masked[&pair.source], &masked[&pair.reference]);
                         again(
-                            reg,
+                            (reg, plan),
                             workspace,
                             (src, dst),
                             (ms.prepared(), mr.prepared()),
+                            (&ds.scans[pair.source], &ds.scans[pair.reference]),
                             run,
                         );
                         if let Some(t) = run.time_us.as_mut() {
@@ -205,12 +207,16 @@ fn masked_scans(
 }
 
 /// The pair's registration again from its first result `run`, on its scans without the
-/// returns `(src, dst)` left out (`masked`).
+/// returns `(src, dst)` left out (`masked`). A second result that left the first's peak
+/// ([`left_the_peak`]) is checked and its ambiguity assessed again on the whole scans
+/// (`scans`, source and reference), as `plan` asks: the first result's answers describe
+/// another pose.
 pub(super) fn again(
-    reg: &dyn Registrar,
+    (reg, plan): (&dyn Registrar, &RunPlan<'_>),
     workspace: &mut Workspace,
     (src, dst): (&Detection, &Detection),
     (source, reference): (Prepared<'_>, Prepared<'_>),
+    scans: (&Scan, &Scan),
     run: &mut PairRun,
 ) {
     let Ok(first) = &run.result else { return };
@@ -234,7 +240,6 @@ pub(super) fn again(
         SUSPECT_APART_M,
         SUSPECT_APART_DEG,
     );
-    let status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
     let dynamic = PairStatus::Dynamic {
         source_share: src.moving_share,
         reference_share: dst.moving_share,
@@ -253,6 +258,15 @@ pub(super) fn again(
         }
         return;
     }
+    if left_the_peak(&first.t_ref_src, &without.t_ref_src) {
+        let clock = Instant::now();
+        (run.check, run.ambiguity) =
+            assess_alone(scans, plan.global, (plan.check, plan.ambiguity), without);
+        if let Some(t) = run.time_us.as_mut() {
+            *t += clock.elapsed().as_secs_f64() * 1e6;
+        }
+    }
+    let status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
     let mut result = result;
     if let Ok(r) = result.as_mut() {
         // The work of both registrations.

@@ -6,10 +6,13 @@ use nalgebra::{Isometry2, Vector2};
 
 use super::again::{again, Masked};
 use super::*;
+use crate::run::init::InitChain;
+use crate::run::pair_search::assess_alone;
+use icp_core::global::GlobalParams;
 
-/// PL_ICP, but every registration lands a metre to the side of where PL_ICP would: a second
-/// registration that wanders into another basin, whatever its start.
-struct Wanders(Icp);
+/// PL_ICP, but every registration lands this many metres to the side of where PL_ICP would:
+/// a second registration that wanders (into another basin, at a metre), whatever its start.
+struct Wanders(Icp, f64);
 
 impl Registrar for Wanders {
     fn name(&self) -> &str {
@@ -34,8 +37,19 @@ impl Registrar for Wanders {
         let mut r = self
             .0
             .register_prepared(workspace, source, reference, init)?;
-        r.t_ref_src = Isometry2::translation(1.0, 0.0) * r.t_ref_src;
+        r.t_ref_src = Isometry2::translation(self.1, 0.0) * r.t_ref_src;
         Ok(r)
+    }
+}
+
+/// A plan that checks every result and assesses its ambiguity, with `global`'s search.
+fn plan(global: &GlobalParams) -> RunPlan<'_> {
+    static CHAIN: std::sync::OnceLock<InitChain> = std::sync::OnceLock::new();
+    RunPlan {
+        chain: CHAIN.get_or_init(InitChain::default),
+        global,
+        check: true,
+        ambiguity: true,
     }
 }
 
@@ -63,7 +77,7 @@ fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
     let right = pl
         .register(&ds.scans[0], &ds.scans[1], Isometry2::identity())
         .unwrap();
-    let wanders = Wanders(pl);
+    let wanders = Wanders(pl, 1.0);
     let found = (
         leaving_first(&ds.scans[0], 5),
         leaving_first(&ds.scans[1], 5),
@@ -82,10 +96,11 @@ fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
         };
         let before = run.status.clone();
         again(
-            &wanders,
+            (&wanders, &plan(&GlobalParams::default())),
             &mut Workspace::default(),
             (&found.0, &found.1),
             (masked.0.prepared(), masked.1.prepared()),
+            (&ds.scans[pair.source], &ds.scans[pair.reference]),
             &mut run,
         );
         let kept = run.result.as_ref().unwrap().t_ref_src;
@@ -98,4 +113,60 @@ fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
     let off = Isometry2::new(Vector2::new(0.1, 0.0), 0.0) * right.t_ref_src;
     let (_, status) = after(off);
     assert!(matches!(status, PairStatus::Dynamic { .. }), "{status}");
+}
+
+/// A second registration that stays in its basin but leaves the first result's peak is
+/// checked at its own pose; one within the peak keeps the first result's check.
+#[test]
+fn a_second_result_off_the_first_ones_peak_is_checked_again() {
+    let ds = generate(&Scenario {
+        n_scans: 2,
+        ..Scenario::paper()
+    })
+    .unwrap();
+    let (source, reference) = (&ds.scans[0], &ds.scans[1]);
+    let global = GlobalParams::default();
+    let found = (leaving_first(source, 5), leaving_first(reference, 5));
+    let params = SurfaceParams::default();
+    let masked = (
+        Masked::new(source, &found.0, &params),
+        Masked::new(reference, &found.1, &params),
+    );
+    let pl = || builtin("PL_ICP").unwrap().build().unwrap();
+    let right = pl()
+        .register(source, reference, Isometry2::identity())
+        .unwrap();
+    let (first_check, _) = assess_alone((source, reference), &global, (true, true), &right);
+    let second = |aside_m: f64| {
+        let result = Ok(right);
+        let mut run = PairRun {
+            status: PairStatus::of(&result, first_check.as_ref(), None),
+            result,
+            check: first_check,
+            ..PairRun::ok_for_test(right.t_ref_src, None)
+        };
+        again(
+            (&Wanders(pl(), aside_m), &plan(&global)),
+            &mut Workspace::default(),
+            (&found.0, &found.1),
+            (masked.0.prepared(), masked.1.prepared()),
+            (source, reference),
+            &mut run,
+        );
+        let now = run.result.as_ref().unwrap().t_ref_src;
+        assert!((now.translation.x - right.t_ref_src.translation.x - aside_m).abs() < 0.02);
+        run
+    };
+    let within = second(0.1);
+    assert_eq!(within.check, first_check);
+    let beyond = second(0.25);
+    let now = beyond.result.as_ref().unwrap();
+    let (expected, ambiguity) = assess_alone((source, reference), &global, (true, true), now);
+    assert_eq!(beyond.check, expected);
+    assert_eq!(beyond.check.unwrap().result_t_ref_src, now.t_ref_src);
+    assert_eq!(beyond.ambiguity, ambiguity);
+    assert_eq!(
+        beyond.status,
+        PairStatus::of(&beyond.result, expected.as_ref(), ambiguity.as_ref())
+    );
 }
