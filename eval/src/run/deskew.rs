@@ -11,8 +11,9 @@
 //! smooths those registrations again in batch. A pair the variant flagged keeps its run (the
 //! smoother leaves it out, and the estimator's pair keeps the flag); an ok pair takes the
 //! second registration and its own verdict ([`PairStatus::of`], with the first's global check
-//! and ambiguity: it starts in the first's basin), so a second registration that fails or
-//! turns degenerate is flagged rather than smoothed.
+//! and ambiguity while it stays within the first's peak, else with those of its own pose on the
+//! deskewed scans: [`crate::run::pair_search::left_the_peak`]), so a second registration that
+//! fails or turns degenerate is flagged rather than smoothed.
 //!
 //! # When each return was taken
 //! The datasets state a sweep only as `sweep_s` (`datasets::Dataset::sweep_s`). The synthetic
@@ -36,11 +37,13 @@
 
 use datasets::{Dataset, ScanPair};
 use icp_core::deskew::{deskew, BodyTwist, Sweep};
+use icp_core::global::GlobalParams;
 use icp_core::sequence::Smoothed;
 use icp_core::{Prepared, Registrar, Scan, Surfaces, Workspace};
 use rayon::prelude::*;
 
 use crate::run::covariance::CovarianceMode;
+use crate::run::pair_search::{assess_alone, left_the_peak};
 use crate::run::runner::PairRun;
 use crate::run::status::PairStatus;
 
@@ -82,10 +85,12 @@ pub fn deskewed_scans(
 /// Each of a variant's registrations `runs` of `pairs` made again with `registrar` on the
 /// `deskewed` scans (indexed by position in `scans`, the run's dataset indices), from its
 /// first result; a flagged pair keeps its run. `covariance` is the run's mode
-/// (see the module docs).
+/// (see the module docs); `global`, the run's global search, and whether it checks results
+/// (a second result off the first's peak is assessed again: its ambiguity where the mode is
+/// an extended one).
 pub fn register_again(
     registrar: &dyn Registrar,
-    covariance: CovarianceMode,
+    (covariance, global): (CovarianceMode, (&GlobalParams, bool)),
     (scans, deskewed): (&[usize], &[Scan]),
     pairs: &[ScanPair],
     runs: &[PairRun],
@@ -96,26 +101,31 @@ pub fn register_again(
         .zip(runs)
         .map_init(Workspace::default, |workspace, (pair, run)| {
             match (of(pair.source), of(pair.reference)) {
-                (Some(source), Some(reference)) => {
-                    again(registrar, covariance, workspace, (source, reference), run)
-                }
+                (Some(source), Some(reference)) => again(
+                    registrar,
+                    (covariance, global),
+                    workspace,
+                    (source, reference),
+                    run,
+                ),
                 _ => run.clone(),
             }
         })
         .collect()
 }
 
-/// `run`'s pair registered again on the deskewed `source` and `reference`.
+/// `run`'s pair registered again on the deskewed `whole` scans (source, reference).
 fn again(
     registrar: &dyn Registrar,
-    covariance: CovarianceMode,
+    (covariance, (global, check)): (CovarianceMode, (&GlobalParams, bool)),
     workspace: &mut Workspace,
-    (source, reference): (&Scan, &Scan),
+    whole: (&Scan, &Scan),
     run: &PairRun,
 ) -> PairRun {
     let (PairStatus::Ok, Ok(first)) = (&run.status, &run.result) else {
         return run.clone();
     };
+    let (source, reference) = whole;
     let (source, reference) = match &run.left_out {
         Some(l) if l.result_without => (
             source.without(&mask(&l.source_indices, source.len())),
@@ -140,9 +150,17 @@ fn again(
         second.covariance = first.covariance;
         second.jackknife_covariance = first.jackknife_covariance;
     }
+    let (check, ambiguity) = match &result {
+        Ok(second) if left_the_peak(&first.t_ref_src, &second.t_ref_src) => {
+            assess_alone(whole, global, (check, covariance.is_extended()), second)
+        }
+        _ => (run.check, run.ambiguity.clone()),
+    };
     PairRun {
-        status: PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref()),
+        status: PairStatus::of(&result, check.as_ref(), ambiguity.as_ref()),
         result,
+        check,
+        ambiguity,
         ..run.clone()
     }
 }
@@ -163,6 +181,7 @@ mod tests {
     use datasets::synthetic::{generate, Scenario};
     use icp_core::sequence::{ScanEstimate, ScanShare, SolveStop};
     use icp_core::variants::builtin;
+    use icp_core::Registration;
     use nalgebra::{Isometry2, Vector2, Vector3};
 
     use super::*;
@@ -210,6 +229,55 @@ mod tests {
         );
     }
 
+    /// A second result within the first's peak keeps the first's check; one that leaves it
+    /// (from a start 0.25 m off, back to the scans' registration) is checked at its own pose.
+    #[test]
+    fn a_second_result_off_the_first_ones_peak_is_checked_at_its_own_pose() {
+        let ds = generate(&Scenario {
+            n_scans: 2,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let scans = deskewed_scans(&ds, &[0, 1], &smoothed(2, Vector3::zeros())).unwrap();
+        let pl = builtin("PL_ICP").unwrap().build().unwrap();
+        let pair = ScanPair {
+            source: 0,
+            reference: 1,
+        };
+        let right = pl
+            .register(&scans[0], &scans[1], Isometry2::identity())
+            .unwrap();
+        let global = GlobalParams::default();
+        let again_from = |off_m: f64| {
+            let start = Isometry2::new(Vector2::new(off_m, 0.0), 0.0) * right.t_ref_src;
+            let first = Registration {
+                t_ref_src: start,
+                ..right
+            };
+            let (check, _) = assess_alone((&scans[0], &scans[1]), &global, (true, false), &first);
+            let run = PairRun {
+                check,
+                ..PairRun::ok_for_test(start, None)
+            };
+            let runs = register_again(
+                &pl,
+                (CovarianceMode::ClosedForm, (&global, true)),
+                (&[0, 1], &scans),
+                &[pair],
+                std::slice::from_ref(&run),
+            );
+            (run.check.unwrap(), runs[0].clone())
+        };
+        let (first, near) = again_from(0.05);
+        assert_eq!(near.check, Some(first));
+        let (first, far) = again_from(0.25);
+        let now = far.result.as_ref().unwrap().t_ref_src;
+        assert!((now.translation.vector - right.t_ref_src.translation.vector).norm() < 1e-3);
+        let check = far.check.unwrap();
+        assert_eq!(check.result_t_ref_src, now);
+        assert!(check != first);
+    }
+
     #[test]
     fn a_flagged_pair_keeps_its_run_and_an_ok_one_is_registered_again_from_its_first_result() {
         let ds = generate(&Scenario {
@@ -242,7 +310,7 @@ mod tests {
         flagged.status = PairStatus::Degenerate { cond_ratio: 1e-4 };
         let runs = register_again(
             &pl,
-            CovarianceMode::ClosedForm,
+            (CovarianceMode::ClosedForm, (&GlobalParams::default(), true)),
             (&[0, 1, 2], &scans),
             &pairs,
             &[ok.clone(), flagged.clone()],
@@ -265,7 +333,7 @@ mod tests {
         let t = |run: PairRun| {
             let runs = register_again(
                 &pl,
-                CovarianceMode::ClosedForm,
+                (CovarianceMode::ClosedForm, (&GlobalParams::default(), true)),
                 (&[0, 1, 2], &scans),
                 &pairs[..1],
                 &[run],
