@@ -291,7 +291,7 @@ pub fn smooth(
             options,
             &model,
             init.clone(),
-            noise::initial_qc(options.geometry, times_s, &regs),
+            noise::starts(options.geometry, times_s, &regs),
             &noise::EmStop {
                 max_rounds: max_iterations,
                 tolerance,

@@ -193,7 +193,7 @@ fn qc_is_recovered_from_motion_drawn_from_the_prior() {
 
 /// An axis that does not move (the sway of a vessel that does not drift) sends its `q`
 /// towards 0, which EM approaches sublinearly, so `q` never settles: the estimation stops on
-/// the likelihood, well before its cap, with the moving axes' `Qc` recovered.
+/// the likelihood, before its cap, with the moving axes' `Qc` recovered.
 #[test]
 fn an_axis_that_does_not_move_stops_the_estimation_on_the_likelihood() {
     let qc = [0.05, 1e-12, 2e-4];
@@ -203,9 +203,11 @@ fn an_axis_that_does_not_move_stops_the_estimation_on_the_likelihood() {
     let ProcessNoise::Estimate { max_iterations, .. } = options.process_noise else {
         panic!("the default estimates Qc");
     };
+    // The rounds of both starts (the second where the first climbed): had either run to its
+    // cap, the total would reach it.
     assert!(
-        out.em_iterations < max_iterations / 2,
-        "{} rounds (cap {max_iterations}), Qc {:?}",
+        out.em_iterations < max_iterations,
+        "{} rounds (cap {max_iterations} a start), Qc {:?}",
         out.em_iterations,
         out.qc
     );
