@@ -281,17 +281,15 @@ impl Window<'_> {
         // WALK_MARGIN_RAD's share of a radian.
         let margin = WALK_MARGIN_RAD * (towards.x.abs() + towards.y.abs());
         let cross = |u: Vector2<f64>| u.x * towards.y - u.y * towards.x;
-        // A saturating cast: a turn not finite or of more than a revolution walks from `from`.
-        let ahead = (turned_rad * self.bins_per_rad) as isize;
+        // At most a revolution either way (a turn not finite walks from `from`: NaN casts to
+        // 0), so one revolution added or taken brings the guess within the bins.
+        let revolution = bins as f64;
+        let ahead = (turned_rad * self.bins_per_rad).clamp(-revolution, revolution) as isize;
         let mut bin = match from as isize + ahead {
             b if b < 0 => b + bins as isize,
             b if b >= bins as isize => b - bins as isize,
             b => b,
-        };
-        if !(0..bins as isize).contains(&bin) {
-            bin = from as isize;
-        }
-        let mut bin = bin as usize;
+        } as usize;
         for _ in 0..=MAX_WALK_STEPS {
             let (past_lower, past_upper) = (cross(edges[bin]), cross(edges[bin + 1]));
             if past_lower > margin && past_upper < -margin {
@@ -486,7 +484,11 @@ mod tests {
             assert_eq!(window.walk(Vector2::new(f64::NAN, 1.0), 0, 0.0), None);
             assert_eq!(window.walk(Vector2::new(f64::INFINITY, 1.0), 0, 0.0), None);
             let v = Vector2::new(1.0, 1.0);
-            assert!(window.walk(v, 0, f64::NAN).is_none_or(|w| w == exact(v)));
+            for turned in [f64::NAN, f64::INFINITY, -1e300, 1e300] {
+                assert!(window
+                    .walk(v, bins - 1, turned)
+                    .is_none_or(|w| w == exact(v)));
+            }
         }
         let coarse = RangeImage::new(&Scan::from_polar(&[5.0, 6.0], &[-2.5, 2.5]).unwrap());
         assert!(coarse.edges.is_empty());
