@@ -147,7 +147,7 @@ impl FreeSpace {
     fn seen_through(
         &self,
         neighbour: &Neighbour<'_>,
-        window: &Window<'_>,
+        window: &mut Window<'_>,
         sensor: &SensorModel,
         i: usize,
         scan: &Scan,
@@ -158,7 +158,7 @@ impl FreeSpace {
         if range_m <= 0.0 {
             return false;
         }
-        let Some(seen_m) = window.nearest_range_m(q.coords) else {
+        let Some(seen_m) = window.nearest_range_m(q.coords, r.bearing_rad) else {
             return false;
         };
         // The bar below is never nearer than `min_gap_m`: most returns (the static scene, seen
@@ -199,10 +199,10 @@ impl MovingReturns for FreeSpace {
         let mut through = vec![false; n];
         let all: f64 = scan.returns().iter().map(|r| r.range_m).sum();
         for nb in neighbours {
-            let window = nb.image.window(self.half_width_rad(nb, sensor));
+            let mut window = nb.image.window(self.half_width_rad(nb, sensor));
             let mut share = 0.0;
             for (i, t) in through.iter_mut().enumerate() {
-                *t = self.seen_through(nb, &window, sensor, i, scan);
+                *t = self.seen_through(nb, &mut window, sensor, i, scan);
                 share += if *t { scan.returns()[i].range_m } else { 0.0 };
             }
             // A chained pose that is wrong makes the static scene look through itself: such a
