@@ -15,7 +15,7 @@ use crate::run::restarts;
 use crate::run::runner::{self, Runs};
 use crate::run::sampled;
 use crate::run::sequence;
-use crate::run::setup::{checked_pairs, EvalSetup, GlobalChecks};
+use crate::run::setup::{checked_pairs, EvalSetup};
 
 /// Runs every variant of `setup` over every consecutive pair of `ds` (and across lags, with
 /// `setup.lags` above 1: their loops flag inconsistent registrations) and builds the report.
@@ -28,12 +28,7 @@ pub fn evaluate(
     let close = setup.close_start_variants()?;
     let methods = setup.methods(&close);
     progress.set_length((methods.len() * pairs.len()) as u64);
-    let plan = runner::RunPlan {
-        chain: &setup.init,
-        global: &setup.global,
-        check: setup.global_check == GlobalChecks::On,
-        ambiguity: setup.covariance.is_extended(),
-    };
+    let plan = setup.run_plan();
     let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
     progress.inc_length((setup.variants.len() * lag_pairs.len()) as u64);
     let mut runs = runner::run_all(ds, &pairs, methods, &plan, progress);

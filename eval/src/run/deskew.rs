@@ -12,8 +12,8 @@
 //! smoother leaves it out, and the estimator's pair keeps the flag); an ok pair takes the
 //! second registration and its own verdict ([`PairStatus::of`], with the first's global check
 //! and ambiguity while it stays within the first's peak, else with those of its own pose on the
-//! deskewed scans: [`crate::run::pair_search::left_the_peak`]), so a second registration that
-//! fails or turns degenerate is flagged rather than smoothed.
+//! deskewed scans: [`crate::run::pair_search::answers_for_second`]), so a second registration
+//! that fails or turns degenerate is flagged rather than smoothed.
 //!
 //! # When each return was taken
 //! The datasets state a sweep only as `sweep_s` (`datasets::Dataset::sweep_s`). The synthetic
@@ -37,14 +37,13 @@
 
 use datasets::{Dataset, ScanPair};
 use icp_core::deskew::{deskew, BodyTwist, Sweep};
-use icp_core::global::GlobalParams;
 use icp_core::sequence::Smoothed;
 use icp_core::{Prepared, Registrar, Scan, Surfaces, Workspace};
 use rayon::prelude::*;
 
 use crate::run::covariance::CovarianceMode;
-use crate::run::pair_search::{assess_alone, left_the_peak};
-use crate::run::runner::PairRun;
+use crate::run::pair_search::answers_for_second;
+use crate::run::runner::{PairRun, RunPlan};
 use crate::run::status::PairStatus;
 
 /// The dataset's sweep, or why none can be used.
@@ -85,12 +84,11 @@ pub fn deskewed_scans(
 /// Each of a variant's registrations `runs` of `pairs` made again with `registrar` on the
 /// `deskewed` scans (indexed by position in `scans`, the run's dataset indices), from its
 /// first result; a flagged pair keeps its run. `covariance` is the run's mode
-/// (see the module docs); `global`, the run's global search, and whether it checks results
-/// (a second result off the first's peak is assessed again: its ambiguity where the mode is
-/// an extended one).
+/// (see the module docs); `plan`, the run's (a second result off the first's peak is checked
+/// and assessed again as it asks).
 pub fn register_again(
     registrar: &dyn Registrar,
-    (covariance, global): (CovarianceMode, (&GlobalParams, bool)),
+    (covariance, plan): (CovarianceMode, &RunPlan<'_>),
     (scans, deskewed): (&[usize], &[Scan]),
     pairs: &[ScanPair],
     runs: &[PairRun],
@@ -103,7 +101,7 @@ pub fn register_again(
             match (of(pair.source), of(pair.reference)) {
                 (Some(source), Some(reference)) => again(
                     registrar,
-                    (covariance, global),
+                    (covariance, plan),
                     workspace,
                     (source, reference),
                     run,
@@ -117,7 +115,7 @@ pub fn register_again(
 /// `run`'s pair registered again on the deskewed `whole` scans (source, reference).
 fn again(
     registrar: &dyn Registrar,
-    (covariance, (global, check)): (CovarianceMode, (&GlobalParams, bool)),
+    (covariance, plan): (CovarianceMode, &RunPlan<'_>),
     workspace: &mut Workspace,
     whole: (&Scan, &Scan),
     run: &PairRun,
@@ -150,11 +148,15 @@ fn again(
         second.covariance = first.covariance;
         second.jackknife_covariance = first.jackknife_covariance;
     }
+    let kept = (run.check, run.ambiguity.clone());
     let (check, ambiguity) = match &result {
-        Ok(second) if left_the_peak(&first.t_ref_src, &second.t_ref_src) => {
-            assess_alone(whole, global, (check, covariance.is_extended()), second)
-        }
-        _ => (run.check, run.ambiguity.clone()),
+        Ok(second) => answers_for_second(
+            (&first.t_ref_src, kept),
+            second,
+            whole,
+            (plan.global, (plan.check, plan.ambiguity)),
+        ),
+        Err(_) => kept,
     };
     PairRun {
         status: PairStatus::of(&result, check.as_ref(), ambiguity.as_ref()),
@@ -179,12 +181,15 @@ fn mask(indices: &[u32], len: usize) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use datasets::synthetic::{generate, Scenario};
+    use icp_core::global::GlobalParams;
     use icp_core::sequence::{ScanEstimate, ScanShare, SolveStop};
     use icp_core::variants::builtin;
     use icp_core::Registration;
     use nalgebra::{Isometry2, Vector2, Vector3};
 
     use super::*;
+    use crate::run::pair_search::assess_alone;
+    use crate::run::setup::EvalSetup;
 
     /// A batch solve of `n` scans whose every twist is `twist`.
     fn smoothed(n: usize, twist: Vector3<f64>) -> Smoothed {
@@ -261,7 +266,10 @@ mod tests {
             };
             let runs = register_again(
                 &pl,
-                (CovarianceMode::ClosedForm, (&global, true)),
+                (
+                    CovarianceMode::ClosedForm,
+                    &EvalSetup::checking_plan(&global),
+                ),
                 (&[0, 1], &scans),
                 &[pair],
                 std::slice::from_ref(&run),
@@ -310,7 +318,10 @@ mod tests {
         flagged.status = PairStatus::Degenerate { cond_ratio: 1e-4 };
         let runs = register_again(
             &pl,
-            (CovarianceMode::ClosedForm, (&GlobalParams::default(), true)),
+            (
+                CovarianceMode::ClosedForm,
+                &EvalSetup::checking_plan(&GlobalParams::default()),
+            ),
             (&[0, 1, 2], &scans),
             &pairs,
             &[ok.clone(), flagged.clone()],
@@ -333,7 +344,10 @@ mod tests {
         let t = |run: PairRun| {
             let runs = register_again(
                 &pl,
-                (CovarianceMode::ClosedForm, (&GlobalParams::default(), true)),
+                (
+                    CovarianceMode::ClosedForm,
+                    &EvalSetup::checking_plan(&GlobalParams::default()),
+                ),
                 (&[0, 1, 2], &scans),
                 &pairs[..1],
                 &[run],

@@ -171,34 +171,55 @@ impl<'w> Searched<'w> {
     }
 }
 
+/// What a pair's global search says of one result: its check, and its ambiguity (`None`
+/// where the plan does not ask, or the search could not be made).
+pub type Answers = (
+    Option<GlobalCheck>,
+    Option<Result<Ambiguity, AmbiguityProblem>>,
+);
+
 /// Whether a registration moved from `checked` (the pose its pair's search assessed) to `now`
 /// beyond the peak the ambiguity lattice judges as one place ([`AmbiguityParams::peak_radius_m`]
 /// in translation, the lattice's rotations either side, [`AmbiguityParams::rotation_steps`] ×
 /// [`AmbiguityParams::rotation_step_deg`], in rotation): then the check's score and the
 /// lattice around the old pose no longer describe it. Within the peak the answers are the
 /// old pose's neighbours' (the lattice is centred on the lattice pose nearest the result).
-pub fn left_the_peak(checked: &Isometry2<f64>, now: &Isometry2<f64>) -> bool {
+fn left_the_peak(checked: &Isometry2<f64>, now: &Isometry2<f64>) -> bool {
     let lattice = AmbiguityParams::default();
     let (apart_m, apart_deg) = crate::run::status::apart(checked, now);
     apart_m > lattice.peak_radius_m
         || apart_deg > lattice.rotation_steps as f64 * lattice.rotation_step_deg
 }
 
+/// The answers that describe `second`, a registration of `scans` (source, reference) made
+/// again from the result `first` (the moving-returns stage's, `run::moving`, and deskew's,
+/// `run::deskew`), whose answers were `kept`: those while `second` stays within the first's
+/// peak (0.15 m or 1°: `left_the_peak`), else its own ([`assess_alone`], as `params` and `asks`, check and
+/// ambiguity, say).
+pub fn answers_for_second(
+    (first, kept): (&Isometry2<f64>, Answers),
+    second: &Registration,
+    scans: (&Scan, &Scan),
+    (params, asks): (&GlobalParams, (bool, bool)),
+) -> Answers {
+    if left_the_peak(first, &second.t_ref_src) {
+        assess_alone(scans, params, asks, second)
+    } else {
+        kept
+    }
+}
+
 /// The global check and ambiguity of `reg`, a registration of `source` onto `reference` made
-/// after the pair's own search was given back (the moving-returns stage's second
-/// registration, `run::moving`): from a search of their own, with the surface estimates of
-/// the default parameters, as the pair's search was made, so the answers are those the pair's
-/// search gives a result at that pose. `check` and `ambiguity` say which the plan asks for;
-/// a search that cannot be made answers neither, as a pair's does.
+/// after the pair's own search was given back: from a search of their own, with the surface
+/// estimates of the default parameters, as the pair's search was made, so the answers are
+/// those the pair's search gives a result at that pose. `check` and `ambiguity` say which the
+/// plan asks for; a search that cannot be made answers neither, as a pair's does.
 pub fn assess_alone(
     (source, reference): (&Scan, &Scan),
     params: &GlobalParams,
     (check, ambiguity): (bool, bool),
     reg: &Registration,
-) -> (
-    Option<GlobalCheck>,
-    Option<Result<Ambiguity, AmbiguityProblem>>,
-) {
+) -> Answers {
     let default = SurfaceParams::default();
     let (source_surfaces, reference_surfaces) = (
         Surfaces::estimate(source, &default),

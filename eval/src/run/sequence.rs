@@ -47,7 +47,7 @@ use crate::run::runner::{run_scans, PairRun, Runs};
 use crate::run::sequence_records::records;
 pub use crate::run::sequence_records::SequenceRecord;
 use crate::run::sequence_setup::SequenceMode;
-use crate::run::setup::{EvalSetup, GlobalChecks};
+use crate::run::setup::EvalSetup;
 use crate::run::status::{apart, PairStatus, CHI2_3_AT_999};
 
 /// What one smoothed estimator did, in `summary.json`.
@@ -309,10 +309,7 @@ fn deskewed<'a>(
     let again = |pairs: &[ScanPair], runs: &[PairRun]| {
         deskew::register_again(
             registrar,
-            (
-                setup.covariance,
-                (&setup.global, setup.global_check == GlobalChecks::On),
-            ),
+            (setup.covariance, &setup.run_plan()),
             (run.scans, &scans),
             pairs,
             runs,

@@ -119,6 +119,31 @@ impl EvalSetup {
         self
     }
 
+    /// What the runner is asked for every pair: the init chain, the global search, whether
+    /// each result is checked against it and whether its ambiguity is assessed (the extended
+    /// covariance modes'). One place for the run, its shards and the registrations made again.
+    pub fn run_plan(&self) -> crate::run::runner::RunPlan<'_> {
+        crate::run::runner::RunPlan {
+            chain: &self.init,
+            global: &self.global,
+            check: self.global_check == GlobalChecks::On,
+            ambiguity: self.covariance.is_extended(),
+        }
+    }
+
+    /// For tests: a plan that checks every result against `global`'s search and assesses its
+    /// ambiguity, from the default init chain.
+    #[cfg(test)]
+    pub(crate) fn checking_plan(global: &GlobalParams) -> crate::run::runner::RunPlan<'_> {
+        static CHAIN: std::sync::OnceLock<InitChain> = std::sync::OnceLock::new();
+        crate::run::runner::RunPlan {
+            chain: CHAIN.get_or_init(InitChain::default),
+            global,
+            check: true,
+            ambiguity: true,
+        }
+    }
+
     /// The methods the runner runs: the variants (with `close`, their close-start twins from
     /// [`Self::close_start_variants`]), then the external estimates.
     pub fn methods<'a>(

@@ -59,7 +59,6 @@ use crate::run::lags::{self, LagRuns};
 use crate::run::options::RunOptions;
 use crate::run::runner::Runs;
 use crate::run::setup::EvalSetup;
-use crate::run::setup::GlobalChecks;
 use crate::run::setup::OffsetChoice;
 
 /// Slurm's array task id.
@@ -651,12 +650,7 @@ pub fn run_shard(
                 let (pairs, _) = crate::run::setup::checked_pairs(ds, setup)?;
                 let close = setup.close_start_variants()?;
                 let methods = setup.methods(&close);
-                let run_plan = crate::run::runner::RunPlan {
-                    chain: &setup.init,
-                    global: &setup.global,
-                    check: setup.global_check == GlobalChecks::On,
-                    ambiguity: setup.covariance.is_extended(),
-                };
+                let run_plan = setup.run_plan();
                 let lag_pairs = lags::lag_pairs(&pairs, setup.lags)?;
                 let (runs, lagged) = match plan.runs[slice.run].cut {
                     Cut::Pairs => {

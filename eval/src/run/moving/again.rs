@@ -21,7 +21,7 @@ use rayon::prelude::*;
 
 use super::{Detections, PULL_APART_DEG, PULL_APART_M};
 use crate::run::left_out::{Confusion, LeftOut};
-use crate::run::pair_search::{assess_alone, left_the_peak};
+use crate::run::pair_search::answers_for_second;
 use crate::run::runner::{PairRun, RunPlan, Runs};
 use crate::run::status::{apart, PairStatus, SUSPECT_APART_DEG, SUSPECT_APART_M};
 
@@ -207,9 +207,9 @@ fn masked_scans(
 }
 
 /// The pair's registration again from its first result `run`, on its scans without the
-/// returns `(src, dst)` left out (`masked`). A second result that left the first's peak
-/// ([`left_the_peak`]) is checked and its ambiguity assessed again on the whole scans
-/// (`scans`, source and reference), as `plan` asks: the first result's answers describe
+/// returns `(src, dst)` left out (`masked`). A second result that left the first's peak is
+/// checked and its ambiguity assessed again on the whole scans (`scans`, source and
+/// reference), as `plan` asks ([`answers_for_second`]): the first result's answers describe
 /// another pose.
 pub(super) fn again(
     (reg, plan): (&dyn Registrar, &RunPlan<'_>),
@@ -258,13 +258,15 @@ pub(super) fn again(
         }
         return;
     }
-    if left_the_peak(&first.t_ref_src, &without.t_ref_src) {
-        let clock = Instant::now();
-        (run.check, run.ambiguity) =
-            assess_alone(scans, plan.global, (plan.check, plan.ambiguity), without);
-        if let Some(t) = run.time_us.as_mut() {
-            *t += clock.elapsed().as_secs_f64() * 1e6;
-        }
+    let clock = Instant::now();
+    (run.check, run.ambiguity) = answers_for_second(
+        (&first.t_ref_src, (run.check, run.ambiguity.take())),
+        without,
+        scans,
+        (plan.global, (plan.check, plan.ambiguity)),
+    );
+    if let Some(t) = run.time_us.as_mut() {
+        *t += clock.elapsed().as_secs_f64() * 1e6;
     }
     let status = PairStatus::of(&result, run.check.as_ref(), run.ambiguity.as_ref());
     let mut result = result;

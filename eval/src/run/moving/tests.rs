@@ -6,8 +6,8 @@ use nalgebra::{Isometry2, Vector2};
 
 use super::again::{again, Masked};
 use super::*;
-use crate::run::init::InitChain;
 use crate::run::pair_search::assess_alone;
+use crate::run::setup::EvalSetup;
 use icp_core::global::GlobalParams;
 
 /// PL_ICP, but every registration lands this many metres to the side of where PL_ICP would:
@@ -39,17 +39,6 @@ impl Registrar for Wanders {
             .register_prepared(workspace, source, reference, init)?;
         r.t_ref_src = Isometry2::translation(self.1, 0.0) * r.t_ref_src;
         Ok(r)
-    }
-}
-
-/// A plan that checks every result and assesses its ambiguity, with `global`'s search.
-fn plan(global: &GlobalParams) -> RunPlan<'_> {
-    static CHAIN: std::sync::OnceLock<InitChain> = std::sync::OnceLock::new();
-    RunPlan {
-        chain: CHAIN.get_or_init(InitChain::default),
-        global,
-        check: true,
-        ambiguity: true,
     }
 }
 
@@ -96,7 +85,10 @@ fn a_jump_from_a_start_the_kept_returns_fit_is_not_dynamic() {
         };
         let before = run.status.clone();
         again(
-            (&wanders, &plan(&GlobalParams::default())),
+            (
+                &wanders,
+                &EvalSetup::checking_plan(&GlobalParams::default()),
+            ),
             &mut Workspace::default(),
             (&found.0, &found.1),
             (masked.0.prepared(), masked.1.prepared()),
@@ -146,7 +138,7 @@ fn a_second_result_off_the_first_ones_peak_is_checked_again() {
             ..PairRun::ok_for_test(right.t_ref_src, None)
         };
         again(
-            (&Wanders(pl(), aside_m), &plan(&global)),
+            (&Wanders(pl(), aside_m), &EvalSetup::checking_plan(&global)),
             &mut Workspace::default(),
             (&found.0, &found.1),
             (masked.0.prepared(), masked.1.prepared()),
