@@ -194,8 +194,8 @@ fn left_the_peak(checked: &Isometry2<f64>, now: &Isometry2<f64>) -> bool {
 /// The answers that describe `second`, a registration of `scans` (source, reference) made
 /// again from the result `first` (the moving-returns stage's, `run::moving`, and deskew's,
 /// `run::deskew`), whose answers were `kept`: those while `second` stays within the first's
-/// peak (0.15 m or 1°: `left_the_peak`), else its own ([`assess_alone`], as `params` and `asks`, check and
-/// ambiguity, say).
+/// peak (0.15 m or 1°: `left_the_peak`), else its own ([`assess_alone`], as `params` and
+/// `asks`, check and ambiguity, say).
 pub fn answers_for_second(
     (first, kept): (&Isometry2<f64>, Answers),
     second: &Registration,
