@@ -1,9 +1,10 @@
-//! The marginal covariances of the batch smoother: the entries of `H⁻¹` within H's band, by a
-//! band Cholesky factor `H = L Lᵀ` and the Takahashi recursion (Takahashi, Fagan & Chen 1973):
-//! for `j` from the last down, `Σ_ij = (δ_ij / L_jj − Σ_{k>j} L_kj Σ_ik) / L_jj` over the band.
-//! Every `Σ_ik` it needs lies within the band, so the cost is `O(n b²)` for bandwidth b (the
-//! scans' ordering keeps b at about 6 × the longest lag), where solving for the columns of
-//! `H⁻¹` costs `O(n² b)`.
+//! The marginal covariances of the batch smoother: the entries of `H⁻¹` within H's band, from
+//! the Cholesky factor `H = L Lᵀ` (faer's, with H's rows and columns in the scans' order, so
+//! that L has no entry outside H's band) by the Takahashi recursion (Takahashi, Fagan & Chen
+//! 1973): for `j` from the last down, `Σ_ij = (δ_ij / L_jj − Σ_{k>j} L_kj Σ_ik) / L_jj` over
+//! the band. Every `Σ_ik` it needs lies within the band, so the cost is `O(n b²)` for bandwidth
+//! b (about 6 × the longest lag, in scalars), where solving for the columns of `H⁻¹` costs
+//! `O(n² b)`.
 
 use super::SequenceError;
 
@@ -40,44 +41,22 @@ impl Band {
         self.vals[j * (self.b + 1) + (i - j)] = v;
     }
 
-    /// The band of the inverse of this positive-definite matrix, and the natural logarithm of
-    /// its determinant (`2 Σ ln L_jj`, from the same factor).
+    /// Taking this band as the lower Cholesky factor L of a positive-definite matrix
+    /// `H = L Lᵀ` (the factor lies within H's band where H's rows and columns keep their
+    /// order: no fill outside it), the band of `H⁻¹` and `ln det H` (`2 Σ ln L_jj`).
     ///
-    /// Both passes read and write whole columns of the band (contiguous in memory): the factor
-    /// by outer products (column j scaled, then the window of the b columns after it updated),
-    /// the recursion as `Σ(j+1.., j) = −W l / L_jj` with `l = L(j+1.., j)` and W the window of
-    /// `Σ` after j, already known. Reading entry by entry through [`Band::at`] took 57 % of the
-    /// estimation of `Qc` on the harbour's size once each scan had an error state (bandwidth
-    /// 35).
-    pub fn inverse_band(&self) -> Result<(Band, f64), SequenceError> {
+    /// The recursion reads and writes whole columns of the band (contiguous in memory):
+    /// `Σ(j+1.., j) = −W l / L_jj` with `l = L(j+1.., j)` and W the window of `Σ` after j,
+    /// already known. Reading entry by entry through [`Band::at`] took 57 % of the estimation
+    /// of `Qc` on the harbour's size once each scan had an error state (bandwidth 35).
+    pub fn inverse_of_factor(&self) -> Result<(Band, f64), SequenceError> {
         let (n, b) = (self.n, self.b);
         let w = b + 1;
-        let fail = SequenceError::Factorisation {
-            what: "band marginals",
-        };
-        // Band Cholesky in place on a copy, right-looking: l[j * w + (i − j)] = L(i, j).
-        let mut l = self.vals.clone();
-        for j in 0..n {
-            let d = l[j * w];
-            if !(d > 0.0 && d.is_finite()) {
-                return Err(fail);
-            }
-            let d = d.sqrt();
-            let len = (b + 1).min(n - j);
-            let (head, tail) = l.split_at_mut((j + 1) * w);
-            let col = &mut head[j * w..j * w + len];
-            col[0] = d;
-            for v in &mut col[1..] {
-                *v /= d;
-            }
-            // A(i, k) −= L(i, j) L(k, j) for j < k ≤ i ≤ j + b: column k of the window.
-            for k in 1..len {
-                let lkj = col[k];
-                let ck = &mut tail[(k - 1) * w..(k - 1) * w + (len - k)];
-                for (a, lij) in ck.iter_mut().zip(&col[k..len]) {
-                    *a -= lij * lkj;
-                }
-            }
+        let l = &self.vals;
+        if (0..n).any(|j| !(l[j * w] > 0.0 && l[j * w].is_finite())) {
+            return Err(SequenceError::Factorisation {
+                what: "band marginals",
+            });
         }
         let log_det = 2.0 * (0..n).map(|j| l[j * w].ln()).sum::<f64>();
         // Takahashi's recursion, from the last column down.
@@ -136,7 +115,6 @@ mod tests {
     fn the_band_of_the_inverse_and_the_log_determinant_match_dense_ones() {
         // Widths below, at and past the dot product's blocks of four.
         for (n, b) in [(40, 5), (60, 11), (7, 9)] {
-            let mut band = Band::zeros(n, b);
             let mut dense = DMatrix::zeros(n, n);
             for j in 0..n {
                 for i in j..(j + b + 1).min(n) {
@@ -145,12 +123,23 @@ mod tests {
                     } else {
                         ((i * 7 + j * 3) % 5) as f64 * 0.1 - 0.2
                     };
-                    band.set(i, j, v);
                     dense[(i, j)] = v;
                     dense[(j, i)] = v;
                 }
             }
-            let (s, log_det) = band.inverse_band().unwrap();
+            // The factor by nalgebra's dense Cholesky: within the band, as the doc says.
+            let l = dense.clone().cholesky().unwrap().l();
+            let mut factor = Band::zeros(n, b);
+            for j in 0..n {
+                for i in j..n {
+                    if i - j <= b {
+                        factor.set(i, j, l[(i, j)]);
+                    } else {
+                        assert!(l[(i, j)].abs() < 1e-15, "fill outside the band");
+                    }
+                }
+            }
+            let (s, log_det) = factor.inverse_of_factor().unwrap();
             let dense_log_det = dense.clone().cholesky().unwrap().determinant().ln();
             assert!((log_det - dense_log_det).abs() < 1e-10 * dense_log_det.abs());
             let inv = dense.try_inverse().unwrap();
@@ -163,5 +152,17 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_factor_without_a_positive_diagonal_is_an_error() {
+        let mut factor = Band::zeros(3, 1);
+        factor.set(0, 0, 1.0);
+        factor.set(2, 2, 1.0);
+        assert!(factor.inverse_of_factor().is_err());
+        factor.set(1, 1, f64::NAN);
+        assert!(factor.inverse_of_factor().is_err());
+        factor.set(1, 1, 2.0);
+        assert!(factor.inverse_of_factor().is_ok());
     }
 }

@@ -1,15 +1,17 @@
 //! The batch smoother: Gauss–Newton over every scan's pose, twist and error with faer's sparse
 //! Cholesky (the symbolic factorisation once per run, the numeric one per iteration into
-//! buffers kept across iterations), and the
-//! marginal covariances of each scan and of each consecutive pair from the final system.
+//! buffers kept across iterations), and the marginal covariances of each scan and of each
+//! consecutive pair from the factor of the final system.
 
 use std::collections::BTreeSet;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymmetricOrdering,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, Mat, Par, Side};
 use nalgebra::{Matrix3, Vector3};
@@ -20,6 +22,15 @@ use super::system::{descend, stopped, Discard, Estimates, Layout, Model, Sink};
 use super::{SequenceError, SolveStop};
 
 /// The upper triangle of H in compressed columns, its symbolic factorisation, and g.
+///
+/// H's rows and columns keep the layout's order, scan after scan: H is then a band matrix
+/// (each factor ties scans at most the longest lag apart) and its Cholesky factor has no
+/// entry outside that band, so the factor is also what the marginals need ([`marginals`]).
+/// faer's supernodal factor, whose supernodes are dense blocks of the band: on the issue-35
+/// bench (`icp-core/benches/sequence.rs`, 865 scans, lags 1–3) the estimation of `Qc` took
+/// 277 ms with AMD's ordering and the simplicial factor, 260 ms in the scans' order, 233–247
+/// ms with the supernodal factor in that order (each with a separate band factorisation for
+/// the marginals, since dropped).
 pub(crate) struct SparseSystem {
     mat: SparseColMat<usize, f64>,
     symbolic: SymbolicCholesky<usize>,
@@ -32,6 +43,15 @@ pub(crate) struct SparseSystem {
     /// `(a, b)`'s column `3b + c` start at `first[c]` (row `3a`, its rows being consecutive), so
     /// adding a block costs no search.
     starts: Vec<Vec<(usize, [usize; 3])>>,
+    /// The blocks of the current linearisation, in the order the factors added them, with
+    /// where each one's values start: every linearisation adds the same blocks in the same
+    /// order, so from the second one on a block's place is read here, not searched for (the
+    /// search was 12 % of the estimation of `Qc`).
+    added: Vec<(usize, usize, [usize; 3])>,
+    /// How many blocks the current linearisation has added.
+    cursor: usize,
+    /// H's bandwidth, in scalars: the largest `column − row` of its pattern.
+    width: usize,
 }
 
 impl SparseSystem {
@@ -82,11 +102,11 @@ impl SparseSystem {
         let symbolic = factorize_symbolic_cholesky(
             mat.symbolic(),
             Side::Upper,
-            SymmetricOrdering::Amd,
-            // faer's choice between simplicial and supernodal: simplicial here. Forcing the
-            // supernodal factor was slower on the harbour's size (batch with Qc given 57 ms
-            // against 39 ms).
-            CholeskySymbolicParams::default(),
+            SymmetricOrdering::Identity,
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+                ..Default::default()
+            },
         )
         .map_err(|_| SequenceError::Factorisation { what: "symbolic" })?;
         let work = MemBuffer::new(
@@ -104,6 +124,11 @@ impl SparseSystem {
             });
             starts[b].push((a, first));
         }
+        let width = pairs
+            .iter()
+            .map(|&(a, b)| 3 * (b - a) + 2)
+            .max()
+            .unwrap_or(0);
         Ok(Self {
             factor: vec![0.0; symbolic.len_val()],
             mat,
@@ -111,16 +136,39 @@ impl SparseSystem {
             work,
             g: vec![0.0; n],
             starts,
+            added: Vec::new(),
+            cursor: 0,
+            width,
         })
     }
 
     pub fn clear(&mut self) {
         self.mat.val_mut().fill(0.0);
         self.g.fill(0.0);
+        self.cursor = 0;
     }
 
-    /// The Gauss–Newton step `−H⁻¹g`, by the numeric factorisation of H.
-    pub fn step(&mut self) -> Result<Vec<f64>, SequenceError> {
+    /// Where the values of block `(bi, bj)` of H start, column by column: the last
+    /// linearisation's block at this place in the order when it is the same block, else
+    /// searched for in the pattern (and remembered).
+    fn first(&mut self, bi: usize, bj: usize) -> [usize; 3] {
+        let at = self.cursor;
+        self.cursor += 1;
+        if let Some(&(a, b, first)) = self.added.get(at) {
+            if (a, b) == (bi, bj) {
+                return first;
+            }
+        }
+        let column = &self.starts[bj];
+        let (a, first) = column[column.partition_point(|&(a, _)| a < bi)];
+        assert_eq!(a, bi, "the pattern holds every block a factor adds");
+        self.added.truncate(at);
+        self.added.push((bi, bj, first));
+        first
+    }
+
+    /// The numeric factorisation of H as it is now.
+    pub fn factorise(&mut self) -> Result<(), SequenceError> {
         self.symbolic
             .factorize_numeric_llt(
                 &mut self.factor,
@@ -132,6 +180,13 @@ impl SparseSystem {
                 Default::default(),
             )
             .map_err(|_| SequenceError::Factorisation { what: "numeric" })?;
+        Ok(())
+    }
+
+    /// The Gauss–Newton step `−H⁻¹g`, by the numeric factorisation of H (kept for
+    /// [`marginals`]).
+    pub fn step(&mut self) -> Result<Vec<f64>, SequenceError> {
+        self.factorise()?;
         let mut rhs = Mat::from_fn(self.g.len(), 1, |i, _| -self.g[i]);
         LltRef::new(&self.symbolic, &self.factor).solve_in_place_with_conj(
             Conj::No,
@@ -145,10 +200,7 @@ impl SparseSystem {
 
 impl Sink for SparseSystem {
     fn add_h(&mut self, bi: usize, bj: usize, m: &Matrix3<f64>) {
-        let column = &self.starts[bj];
-        let at = column.partition_point(|&(a, _)| a < bi);
-        let (a, first) = column[at];
-        assert_eq!(a, bi, "the pattern holds every block a factor adds");
+        let first = self.first(bi, bj);
         let vals = self.mat.val_mut();
         for c in 0..3 {
             for r in 0..3 {
@@ -192,9 +244,14 @@ fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &
     cost
 }
 
-/// Gauss–Newton with step control ([`descend`]) from `est` until the largest step is below
-/// `tolerance`, no step lowers the cost, or after `max_iterations`; leaves `sys` linearised
-/// at the result and returns the cost there and how it stopped.
+/// Gauss–Newton with step control ([`descend`]) from `est` until a step's Newton decrement
+/// `−gᵀδ` is at most `tolerance`, no step lowers the cost, or after `max_iterations` steps;
+/// returns the cost at the result and how it stopped, and leaves `sys` factorised for
+/// [`marginals`]. Where the last step was below the tolerance (taken, as every step), the
+/// factor it was computed with stands for the system at the result: the states moved by less
+/// than the tolerance allows, and a linearisation and factorisation more at the result, for
+/// marginals that differ by as little, took a third of the estimation of `Qc` (the issue-35
+/// bench: 265–277 ms against 184 ms without, the same `Qc` to 3 digits and the same rounds).
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -204,14 +261,14 @@ pub(crate) fn solve(
     tolerance: f64,
 ) -> Result<(f64, SolveStop), SequenceError> {
     let mut trial = est.clone();
-    let mut stop = SolveStop::IterationCap;
+    let mut cost = linearise(model, est, layout, sys);
+    let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
     for _ in 0..max_iterations {
-        let cost = linearise(model, est, layout, sys);
         let delta = sys.step()?;
         if delta.iter().any(|d| !d.is_finite()) {
             return Err(SequenceError::Factorisation { what: "step" });
         }
-        let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
+        let decrement = -sys.g.iter().zip(&delta).map(|(g, d)| g * d).sum::<f64>();
         let taken = descend(
             model.geometry,
             layout,
@@ -221,13 +278,17 @@ pub(crate) fn solve(
             cost,
             cost_at,
         );
-        let decrement = -sys.g.iter().zip(&delta).map(|(g, d)| g * d).sum::<f64>();
-        if let Some(how) = stopped(taken, decrement, tolerance) {
-            stop = how;
-            break;
+        match stopped(taken, decrement, tolerance) {
+            // `est` has not moved: the factor is its system's.
+            Some(SolveStop::NoDescent) => return Ok((cost, SolveStop::NoDescent)),
+            // The last step was below the tolerance: the factor it was taken with stands for
+            // the system at `est`.
+            Some(how) => return Ok((cost_at(est), how)),
+            None => cost = linearise(model, est, layout, sys),
         }
     }
-    Ok((linearise(model, est, layout, sys), stop))
+    sys.factorise()?;
+    Ok((cost, SolveStop::IterationCap))
 }
 
 /// The marginals of a solution (see [`marginals`]).
@@ -243,30 +304,13 @@ pub(crate) struct Marginals {
 /// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero; its error,
 /// where the model has them, is marginalised out like every scan's), the
 /// cross-covariance `Σ_k,k+1` of consecutive scans, and `ln det H`: from the band of `H⁻¹`
-/// (see [`Band`]) of the system linearised at the solution.
+/// (see [`Band`]), by the Cholesky factor of the system as [`solve`] left it.
 pub(crate) fn marginals(
     sys: &SparseSystem,
     layout: &Layout,
     n_states: usize,
 ) -> Result<Marginals, SequenceError> {
-    let m = sys.mat.as_ref();
-    let (col_ptr, row_idx, vals) = (m.symbolic().col_ptr(), m.symbolic().row_idx(), m.val());
-    let n = layout.dim();
-    let width = (0..n)
-        .flat_map(|c| {
-            row_idx[col_ptr[c]..col_ptr[c + 1]]
-                .iter()
-                .map(move |&r| c - r)
-        })
-        .max()
-        .unwrap_or(0);
-    let mut h = Band::zeros(n, width);
-    for c in 0..n {
-        for p in col_ptr[c]..col_ptr[c + 1] {
-            h.set(c, row_idx[p], vals[p]);
-        }
-    }
-    let (sigma, log_det_h) = h.inverse_band()?;
+    let (sigma, log_det_h) = factor_band(sys)?.inverse_of_factor()?;
     let block = |a: usize, b: usize| -> Matrix6 {
         let mut out = Matrix6::zeros();
         for (sa, ba) in layout.state_blocks(a).into_iter().take(2).enumerate() {
@@ -289,4 +333,41 @@ pub(crate) fn marginals(
             .collect(),
         log_det_h,
     })
+}
+
+/// The numeric Cholesky factor of `sys` (its last [`SparseSystem::factorise`]) as a band: the
+/// supernodes' dense blocks copied entry by entry. A relaxed supernode's columns share one
+/// pattern, so a column may hold rows past the band; those entries are exact zeros (no
+/// elimination reaches them in the scans' order) and are left out.
+fn factor_band(sys: &SparseSystem) -> Result<Band, SequenceError> {
+    let layout_error = SequenceError::Factorisation {
+        what: "factor layout",
+    };
+    let SymbolicCholeskyRaw::Supernodal(symbolic) = sys.symbolic.raw() else {
+        return Err(layout_error);
+    };
+    if sys.symbolic.perm().is_some() {
+        return Err(layout_error);
+    }
+    let factor = SupernodalLltRef::new(symbolic, &sys.factor);
+    let mut band = Band::zeros(sys.g.len(), sys.width);
+    for s in 0..symbolic.n_supernodes() {
+        let node = factor.supernode(s);
+        let (start, pattern, values) = (node.start(), node.pattern(), node.val());
+        let columns = values.ncols();
+        for c in 0..columns {
+            let j = start + c;
+            for r in c..values.nrows() {
+                let i = if r < columns {
+                    start + r
+                } else {
+                    pattern[r - columns]
+                };
+                if i - j <= sys.width {
+                    band.set(i, j, values[(r, c)]);
+                }
+            }
+        }
+    }
+    Ok(band)
 }
