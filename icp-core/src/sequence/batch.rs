@@ -249,9 +249,10 @@ fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &
 /// returns the cost at the result and how it stopped, and leaves `sys` factorised for
 /// [`marginals`]. Where the last step was below the tolerance (taken, as every step), the
 /// factor it was computed with stands for the system at the result: the states moved by less
-/// than the tolerance allows, and a linearisation and factorisation more at the result, for
-/// marginals that differ by as little, took a third of the estimation of `Qc` (the issue-35
-/// bench: 265–277 ms against 184 ms without, the same `Qc` to 3 digits and the same rounds).
+/// than the tolerance allows, and the marginals of a system linearised and factorised again
+/// there differ by as little (the same `Qc` to 3 digits and the same EM rounds on the
+/// harbours, marina and aces; reports/performance.md, issue 35). Not taking that last step
+/// instead moved the paper harbour's sway `q`, an axis heading for 0, by a factor of 7.
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
