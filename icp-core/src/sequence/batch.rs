@@ -339,7 +339,8 @@ pub(crate) fn marginals(
 /// The numeric Cholesky factor of `sys` (its last [`SparseSystem::factorise`]) as a band: the
 /// supernodes' dense blocks copied entry by entry. A relaxed supernode's columns share one
 /// pattern, so a column may hold rows past the band; those entries are exact zeros (no
-/// elimination reaches them in the scans' order) and are left out.
+/// elimination reaches them in the scans' order) and are left out, and one that is not is an
+/// error rather than a marginal silently wrong.
 fn factor_band(sys: &SparseSystem) -> Result<Band, SequenceError> {
     let layout_error = SequenceError::Factorisation {
         what: "factor layout",
@@ -364,8 +365,13 @@ fn factor_band(sys: &SparseSystem) -> Result<Band, SequenceError> {
                 } else {
                     pattern[r - columns]
                 };
+                let value = values[(r, c)];
                 if i - j <= sys.width {
-                    band.set(i, j, values[(r, c)]);
+                    band.set(i, j, value);
+                } else if value != 0.0 {
+                    return Err(SequenceError::Factorisation {
+                        what: "factor outside the band",
+                    });
                 }
             }
         }
