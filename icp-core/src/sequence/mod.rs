@@ -281,8 +281,18 @@ pub fn smooth(
         twist0: twist0(options)?,
         scan_errors: errors.as_deref(),
     };
-    let (qc, em_iterations, start) = match options.process_noise {
-        ProcessNoise::Fixed(qc) => (qc, 0, init.clone()),
+    let noise::Estimated {
+        qc,
+        rounds: em_iterations,
+        est: start,
+        sys,
+    } = match options.process_noise {
+        ProcessNoise::Fixed(qc) => noise::Estimated {
+            qc,
+            rounds: 0,
+            est: init.clone(),
+            sys: None,
+        },
         ProcessNoise::Estimate {
             max_iterations,
             tolerance,
@@ -304,7 +314,7 @@ pub fn smooth(
         // The batch solve starts where the estimation of `Qc` left it; the causal one from
         // the chained start, which uses no scan after the one it estimates.
         Mode::Batch => {
-            let (est, m, stop) = noise::batch_with_marginals(&model, start, options)?;
+            let (est, m, stop) = noise::batch_with_marginals(&model, start, sys, options)?;
             (outputs(&model, &est, &m.own, &m.cross), stop)
         }
         Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,

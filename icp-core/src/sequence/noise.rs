@@ -13,14 +13,20 @@ use super::{Geometry, SequenceError, SmootherOptions, SolveStop};
 const Q_FLOOR: f64 = 1e-12;
 
 /// The batch solve at `model`'s `Qc` from `init`, with every scan's marginal covariance and
-/// the cross-covariance of consecutive scans, and how the solve stopped.
+/// the cross-covariance of consecutive scans, and how the solve stopped; on `sys` where the
+/// estimation of `Qc` laid one out (the same pattern: `Qc` does not change it), else on a new
+/// one.
 pub(crate) fn batch_with_marginals(
     model: &Model<'_>,
     est: Estimates,
+    sys: Option<SparseSystem>,
     options: &SmootherOptions,
 ) -> Result<(Estimates, Marginals, SolveStop), SequenceError> {
     let layout = model.layout(0, est.poses.len());
-    let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
+    let mut sys = match sys {
+        Some(sys) => sys,
+        None => SparseSystem::new(model, &layout, est.poses.len())?,
+    };
     let (est, marginals, (_, stop)) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
     Ok((est, marginals, stop))
 }
@@ -127,7 +133,7 @@ pub(crate) fn estimate(
     est: Estimates,
     (first, second): ([f64; 3], Option<[f64; 3]>),
     stop: &EmStop,
-) -> Result<([f64; 3], usize, Estimates), SequenceError> {
+) -> Result<Estimated, SequenceError> {
     let again = second.map(|_| est.clone());
     let mut em = Em {
         options,
@@ -154,7 +160,23 @@ pub(crate) fn estimate(
         }
     }
     let (qc, _, est) = best;
-    Ok((qc, em.rounds, est))
+    Ok(Estimated {
+        qc,
+        rounds: em.rounds,
+        est,
+        sys: em.sys,
+    })
+}
+
+/// What [`estimate`] gives: `Qc`, the EM rounds taken over all starts, the last round's
+/// solution (a start for the solve at `Qc`, close to its minimum), and the system the rounds
+/// were solved on (laid out and symbolically factorised once; none if no round ran), which
+/// that solve reuses.
+pub(crate) struct Estimated {
+    pub qc: [f64; 3],
+    pub rounds: usize,
+    pub est: Estimates,
+    pub sys: Option<SparseSystem>,
 }
 
 /// [`estimate`] from `qc0` alone, in `em` (whose estimates it starts from and leaves at its
@@ -386,9 +408,9 @@ mod tests {
         } else {
             from_low
         };
-        assert_eq!(both.0, likelier);
-        assert_eq!(both.1, low_rounds + high_rounds);
+        assert_eq!(both.qc, likelier);
+        assert_eq!(both.rounds, low_rounds + high_rounds);
         let from_above = estimate(&options, &model, start, (high, Some(low)), &stop).unwrap();
-        assert_eq!((from_above.0, from_above.1), (from_high, high_rounds));
+        assert_eq!((from_above.qc, from_above.rounds), (from_high, high_rounds));
     }
 }
