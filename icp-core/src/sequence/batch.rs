@@ -263,13 +263,13 @@ pub(crate) fn solve(
 ) -> Result<(f64, SolveStop), SequenceError> {
     let mut trial = est.clone();
     let mut cost = linearise(model, est, layout, sys);
-    let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
     for _ in 0..max_iterations {
         let delta = sys.step()?;
         if delta.iter().any(|d| !d.is_finite()) {
             return Err(SequenceError::Factorisation { what: "step" });
         }
         let decrement = -sys.g.iter().zip(&delta).map(|(g, d)| g * d).sum::<f64>();
+        let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
         let taken = descend(
             model.geometry,
             layout,
@@ -283,8 +283,8 @@ pub(crate) fn solve(
             // `est` has not moved: the factor is its system's.
             Some(SolveStop::NoDescent) => return Ok((cost, SolveStop::NoDescent)),
             // The last step was below the tolerance: the factor it was taken with stands for
-            // the system at `est`.
-            Some(how) => return Ok((cost_at(est), how)),
+            // the system at `est`, and `descend` gave the cost there.
+            Some(how) => return Ok((taken.map_or(cost, |t| t.cost), how)),
             None => cost = linearise(model, est, layout, sys),
         }
     }

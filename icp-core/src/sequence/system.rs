@@ -188,7 +188,7 @@ impl Layout {
 /// What a step [`descend`] took (`taken`) says of the solve, for a Gauss–Newton step `δ` of
 /// Newton decrement `decrement` (`δᵀHδ = −gᵀδ`: its squared length in the estimate's own σ):
 /// `None` while it goes on, else how it stopped.
-pub(crate) fn stopped(taken: Option<f64>, decrement: f64, tolerance: f64) -> Option<SolveStop> {
+pub(crate) fn stopped(taken: Option<Descent>, decrement: f64, tolerance: f64) -> Option<SolveStop> {
     match taken {
         Some(_) if decrement > tolerance => None,
         Some(_) => Some(SolveStop::Converged),
@@ -200,9 +200,17 @@ pub(crate) fn stopped(taken: Option<f64>, decrement: f64, tolerance: f64) -> Opt
 /// shorter than Gauss–Newton's).
 const MAX_HALVINGS: usize = 12;
 
+/// A step [`descend`] took: its scale (of the Gauss–Newton step) and the cost at the states
+/// it moved to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Descent {
+    pub scale: f64,
+    pub cost: f64,
+}
+
 /// Step control of the smoothers' Gauss–Newton: moves `est` by the step `delta` (laid out as
 /// `layout`), halved until the cost (`cost`, at the trial states in `trial`, a scratch copy
-/// of `est`) is no higher than `cost_now`; returns the scale taken, or `None` (and `est`
+/// of `est`) is no higher than `cost_now`; returns the step taken, or `None` (and `est`
 /// unchanged) when no step down to [`MAX_HALVINGS`] halvings lowers it. Without it, after
 /// the aces log's 18 s pause (where the prior barely ties the scans) full steps diverged until
 /// the causal window's system was no longer positive definite.
@@ -214,14 +222,15 @@ pub(crate) fn descend(
     delta: &[f64],
     cost_now: f64,
     cost: impl Fn(&Estimates) -> f64,
-) -> Option<f64> {
+) -> Option<Descent> {
     let mut scale = 1.0;
     for _ in 0..=MAX_HALVINGS {
         layout.copy(est, trial);
         layout.apply(geometry, trial, delta, scale);
-        if cost(trial) <= cost_now {
+        let at = cost(trial);
+        if at <= cost_now {
             layout.copy(trial, est);
-            return Some(scale);
+            return Some(Descent { scale, cost: at });
         }
         scale *= 0.5;
     }
@@ -411,7 +420,7 @@ mod tests {
         // From u = 0 (cost 1) a step to u = 6 overshoots (25), so does u = 3 (4); halved
         // twice it lands on u = 1.5 (0.25).
         let delta = [6.0, 0.0, 0.0];
-        let scale = descend(
+        let taken = descend(
             Geometry::Se2,
             &layout,
             &mut est,
@@ -420,11 +429,17 @@ mod tests {
             1.0,
             cost,
         );
-        assert_eq!(scale, Some(0.25));
+        assert_eq!(
+            taken,
+            Some(Descent {
+                scale: 0.25,
+                cost: 0.25
+            })
+        );
         assert_eq!(est.twists[0].x, 1.5);
         // Away from the minimum every step raises the cost: nothing moves.
         let away = [1.0, 0.0, 0.0];
-        let scale = descend(
+        let taken = descend(
             Geometry::Se2,
             &layout,
             &mut est,
@@ -433,7 +448,7 @@ mod tests {
             0.25,
             cost,
         );
-        assert_eq!(scale, None);
+        assert_eq!(taken, None);
         assert_eq!(est.twists[0].x, 1.5);
     }
 }
