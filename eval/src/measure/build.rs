@@ -162,7 +162,7 @@ pub fn build(
                 refs[i].and_then(|r| r.t_ref_src),
                 setup.covariance,
                 inflation,
-                extended::added_terms(motion_terms[i], run, setup.covariance).as_ref(),
+                extended::added_terms(motion_terms[i], run, setup.covariance, inflation).as_ref(),
             );
             if let (Some(step), Some(truth)) = (&reference_step, refs[i].and_then(|r| r.t_ref_src))
             {

@@ -108,12 +108,16 @@ impl<'w> Searched<'w> {
         // Timed once the scores are this thread's, as a check is.
         let mut lattice = self.lattice.lock().unwrap_or_else(PoisonError::into_inner);
         let clock = Instant::now();
-        let answer = lattice.ambiguity(
-            self.matcher.grid(),
-            source,
-            &reg.t_ref_src,
-            &AmbiguityParams::default(),
-        );
+        // Whether the scene pins it is asked of a degenerate registration alone: it lifts
+        // that flag (`PairStatus::of`) and nothing else.
+        let default = AmbiguityParams::default();
+        let params = AmbiguityParams {
+            pinned_ratio: default
+                .pinned_ratio
+                .filter(|_| reg.conditioning.is_some_and(|c| c.degenerate())),
+            ..default
+        };
+        let answer = lattice.ambiguity(self.matcher.grid(), source, &reg.t_ref_src, &params);
         drop(lattice);
         *self.check_us.lock().unwrap_or_else(PoisonError::into_inner) +=
             clock.elapsed().as_secs_f64() * 1e6;
@@ -322,15 +326,13 @@ mod tests {
 
     /// A registration assessed alone (after its pair's search was given back) gets the check
     /// and the ambiguity the pair's search gives it, and only what the plan asks for.
-    #[test]
-    fn assessed_alone_as_by_the_pairs_search() {
-        let ds = generate(&Scenario {
-            n_scans: 2,
-            ..Scenario::paper()
-        })
-        .unwrap();
-        let pair = ds.consecutive_pairs().0[0];
-        let (source, reference) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+    /// `source` registered onto `reference` by PL_ICP from `start`, with the surfaces of the
+    /// two scans it used.
+    fn pl_icp(
+        source: &Scan,
+        reference: &Scan,
+        start: Isometry2<f64>,
+    ) -> (Registration, Surfaces, Surfaces) {
         let surfaces = |scan: &Scan| Surfaces::estimate(scan, &SurfaceParams::default());
         let (source_surfaces, reference_surfaces) = (surfaces(source), surfaces(reference));
         let registered = builtin("PL_ICP")
@@ -341,9 +343,23 @@ mod tests {
                 &mut Workspace::default(),
                 Prepared::new(source, &source_surfaces),
                 Prepared::new(reference, &reference_surfaces),
-                Isometry2::identity(),
+                start,
             )
             .unwrap();
+        (registered, source_surfaces, reference_surfaces)
+    }
+
+    #[test]
+    fn assessed_alone_as_by_the_pairs_search() {
+        let ds = generate(&Scenario {
+            n_scans: 2,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let pair = ds.consecutive_pairs().0[0];
+        let (source, reference) = (&ds.scans[pair.source], &ds.scans[pair.reference]);
+        let (registered, source_surfaces, reference_surfaces) =
+            pl_icp(source, reference, Isometry2::identity());
         let params = GlobalParams::default();
         for (x, deg) in [(0.0, 0.0), (0.4, 0.0), (0.0, 2.0), (2.0, 30.0)] {
             // Conditioning not known: the ambiguity is assessed, as for a weak one.
@@ -379,6 +395,96 @@ mod tests {
                 (by_pair.0, None)
             );
         }
+    }
+
+    /// A registration whose pairs leave a corridor's axis weak (conditioning below
+    /// `DEGENERATE_RATIO`) stands where the lattice pins it, and is flagged degenerate where it
+    /// slid to no motion, where a fixed fan's spots on far walls coincide whatever the scene.
+    #[test]
+    fn a_weak_registration_the_lattice_pins_stands() {
+        use crate::run::status::{PairStatus, StatusKind};
+        use datasets::synthetic::{generate_corridor, Corridor};
+        use nalgebra::{Point2, Vector2 as V};
+        // PL_ICP from the truth, the lattice around its result, the verdict.
+        let verdict = |reference: &Scan, source: &Scan, start: Isometry2<f64>| {
+            let (registered, source_surfaces, reference_surfaces) =
+                pl_icp(source, reference, start);
+            assert!(registered.conditioning.unwrap().degenerate());
+            let mut workspace = GlobalWorkspace::default();
+            let searched = Searched::new(
+                Prepared::new(reference, &reference_surfaces),
+                Prepared::new(source, &source_surfaces),
+                &GlobalParams::default(),
+                false,
+                &mut workspace,
+                &mut GridPool::default(),
+            )
+            .unwrap();
+            let ambiguity = searched.ambiguity(&registered, source).unwrap();
+            let status = PairStatus::of(&Ok(registered), None, Some(&ambiguity));
+            (
+                registered.t_ref_src,
+                ambiguity.unwrap().pinned,
+                status.kind(),
+            )
+        };
+        // The synthetic corridor (seed 13): pair 80, 0.40 m along a corridor, placed by the
+        // scene within 2 cm.
+        let ds = generate_corridor(&Corridor {
+            n_scans: 82,
+            seed: 13,
+            ..Corridor::default()
+        })
+        .unwrap();
+        let pair = ds.consecutive_pairs().0[80];
+        let truth = crate::data::motion(&ds, pair.source, pair.reference, 1.0)
+            .and_then(|m| m.t_ref_src)
+            .unwrap();
+        let (result, pinned, kind) =
+            verdict(&ds.scans[pair.reference], &ds.scans[pair.source], truth);
+        assert!(truth.translation.vector.norm() > 0.3);
+        assert!((result.translation.vector - truth.translation.vector).norm() < 0.05);
+        let peak = pinned.expect("pinned");
+        assert!(
+            peak[(0, 0)].sqrt() < 0.15 && peak[(1, 1)].sqrt() < 0.15,
+            "{peak}"
+        );
+        assert_eq!(kind, StatusKind::Ok);
+        // A corridor 2.4 m wide ending 30 m ahead, seen by a 1° fan over 180° from the origin
+        // and from 0.3 m along: the registration slides to no motion, where the two scans'
+        // spots on the walls far ahead coincide.
+        let scan = |pose: Isometry2<f64>| {
+            let walls = [
+                ([-40.0, -1.2], [30.0, -1.2]),
+                ([-40.0, 1.2], [30.0, 1.2]),
+                ([30.0, -1.2], [30.0, 1.2]),
+            ];
+            let o = Point2::from(pose.translation.vector);
+            let points: Vec<[f64; 2]> = (-90..90)
+                .filter_map(|k| {
+                    let bearing = (f64::from(k) + 0.5).to_radians();
+                    let u = pose.rotation * V::new(bearing.cos(), bearing.sin());
+                    let range = walls
+                        .iter()
+                        .filter_map(|&(a, b)| {
+                            let (a, e) = (Point2::from(a), V::from(b) - V::from(a));
+                            let denom = u.x * e.y - u.y * e.x;
+                            let w = a - o;
+                            let t = (w.x * e.y - w.y * e.x) / denom;
+                            let s = (w.x * u.y - w.y * u.x) / denom;
+                            (denom.abs() > 1e-12 && t > 0.0 && (0.0..=1.0).contains(&s))
+                                .then_some(t)
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    (range <= 50.0).then(|| [range * bearing.cos(), range * bearing.sin()])
+                })
+                .collect();
+            Scan::from_cartesian(&points).unwrap()
+        };
+        let truth = Isometry2::new(V::new(0.3, 0.0), 0.0);
+        let (result, pinned, kind) = verdict(&scan(Isometry2::identity()), &scan(truth), truth);
+        assert!(result.translation.vector.norm() < 0.01, "{result}");
+        assert_eq!((pinned, kind), (None, StatusKind::Degenerate));
     }
 
     /// The peak: 0.15 m and 1° (the lattice's rotations either side) around the pose checked.

@@ -352,10 +352,12 @@ fn covariance_of(setup: &EvalSetup, inflation: f64, run: &PairRun) -> Option<Mat
         return None;
     };
     // The motion term needs the run's motion, which the smoother estimates: none here.
-    Some(match extended::added_terms(None, run, setup.covariance) {
-        Some(term) => cov + term,
-        None => cov,
-    })
+    Some(
+        match extended::added_terms(None, run, setup.covariance, inflation) {
+            Some(term) => cov + term,
+            None => cov,
+        },
+    )
 }
 
 /// The registrations a smoother left out: flagged (or without a bounded covariance), and

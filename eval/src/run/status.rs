@@ -27,13 +27,21 @@ pub fn apart(a: &Isometry2<f64>, b: &Isometry2<f64>) -> (f64, f64) {
 /// allows (a one-in-a-thousand event for an honest one).
 pub const CHI2_3_AT_999: f64 = 16.266_236_196_238_1;
 
+/// Whether the ambiguity lattice around a result pins it ([`Ambiguity::pinned`]).
+fn pinned(ambiguity: Option<&Result<Ambiguity, AmbiguityProblem>>) -> bool {
+    matches!(ambiguity, Some(Ok(a)) if a.pinned.is_some())
+}
+
 /// The verdict on one registration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum PairStatus {
     /// Registered, and nothing says the number is wrong.
     Ok,
     /// Registered, but the final pairs barely constrain one direction of the motion
-    /// (conditioning ratio below [`DEGENERATE_RATIO`]): a corridor, a single wall.
+    /// (conditioning ratio below [`DEGENERATE_RATIO`]): a corridor, a single wall. Not where
+    /// the ambiguity lattice pins the result ([`Ambiguity::pinned`]): every pose the
+    /// reference's likelihood grid scores at 0.8 × the best or more lies within the result's
+    /// peak, so something the pairs weigh little (a door, a recess) places it.
     Degenerate {
         /// Smallest over largest eigenvalue of the Hessian at the solution.
         cond_ratio: f64,
@@ -150,8 +158,9 @@ pub enum StatusKind {
 impl PairStatus {
     /// The verdict on `result`: a failure first, then no overlap (a registration of scans
     /// that do not see the same surfaces means nothing, however well conditioned), then
-    /// degenerate, then suspect when a global search's `check` says so, then ambiguous when
-    /// its `ambiguity` says so ([`AmbiguityFlag::of`]).
+    /// degenerate (unless the `ambiguity` lattice pins the result), then suspect when a global
+    /// search's `check` says so, then ambiguous when its `ambiguity` says so
+    /// ([`AmbiguityFlag::of`]).
     pub fn of(
         result: &Result<Registration, IcpError>,
         check: Option<&GlobalCheck>,
@@ -163,7 +172,7 @@ impl PairStatus {
             },
             Ok(r) if r.no_overlap() => Self::NoOverlap { overlap: r.overlap },
             Ok(r) => match (r.conditioning, check) {
-                (Some(c), _) if c.degenerate() => Self::Degenerate {
+                (Some(c), _) if c.degenerate() && !pinned(ambiguity) => Self::Degenerate {
                     cond_ratio: c.ratio,
                 },
                 (_, Some(check)) if check.suspect() => Self::Suspect { check: *check },

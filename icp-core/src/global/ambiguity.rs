@@ -27,6 +27,22 @@
 //! beyond the result's own peak (more than `peak_radius_m` from the lattice pose nearest the
 //! result): a slide; elsewhere it is zero, and the registration's covariance stands alone.
 //!
+//! # A pose the scene pins
+//! A registration whose final pairs leave a direction weak (a low conditioning ratio,
+//! `crate::quality`, which counts pairs) may still be pinned by the scene: a door, a recess, a
+//! corridor's far end, few returns that the grid's score weighs by the surface each spans (its
+//! range). The lattice says so when every pose scoring at least `pinned_ratio` × the best, a
+//! looser bar than the near-optimal one, lies within the result's peak
+//! ([`Ambiguity::pinned`]). Never around no motion (a result within the peak of the identity):
+//! a scanner whose bearings repeat from scan to scan (a fixed fan, as indoor robots' are)
+//! samples a wall at long range or grazing incidence in spots far apart, the grid marks the
+//! spots and not the wall between, and the spots of two scans taken apart along the wall fall
+//! on each other at no motion, a sharp peak there whatever the scene (a slide to a standstill
+//! in a corridor is pinned by it). The pose is then known to the peak, not better: the second
+//! moment of those poses (each with its cell's spread, as in the term) says how closely, for
+//! the caller to use where the pairs' own covariance cannot be trusted along the weak
+//! direction.
+//!
 //! # Distinct poses
 //! Where the poses scoring at least `distinct_ratio` × the best fall apart into separate
 //! groups (connected on the lattice, neighbours including diagonals) whose best poses are more
@@ -61,6 +77,10 @@ pub struct AmbiguityParams {
     /// The term is zero unless a near-optimal pose lies farther than this from the lattice pose
     /// nearest the result (the window's centre), metres.
     pub peak_radius_m: f64,
+    /// Every pose scoring at least this fraction of the window's best lies within the
+    /// result's peak when the lattice pins the result ([`Ambiguity::pinned`]), in (0,
+    /// [`Self::near_ratio`]]; `None`: not asked (it costs a pass of the lattice at this bar).
+    pub pinned_ratio: Option<f64>,
     /// Poses scoring at least this fraction of the best form the groups of which two distinct
     /// ones make the pair ambiguous, in [`Self::near_ratio`], 1].
     pub distinct_ratio: f64,
@@ -91,6 +111,11 @@ pub struct AmbiguityParams {
 ///
 /// (The figures at 0.95 and 0.25 m were measured without the conditioning gate of the eval's
 /// extended covariance, `WEAK_CONDITIONING`, which only takes terms away.)
+/// * `pinned_ratio` 0.8, among 0.9, 0.8, 0.7, 0.6 and 0.5: of the registrations below the
+///   degenerate conditioning ratio (0.01), those the lattice pins at 0.9 included 6 and 4 badly
+///   wrong ones (0.30–0.72 m off, slid to near standstill) on seeds 7 and 13; at 0.8 none (96
+///   pinned on the three seeds, at most 0.15 m off), nor on seed 17, the default seed 2036 or
+///   aces (31, 33 and 18 pinned, at most 0.14 m off). 0.7 pins almost nothing.
 /// * `distinct_ratio` 0.95, `separation_m` 0.5 m (the global search's `ambiguity_separation_m`).
 /// * `min_returns` 10, `flat_fraction` 0.5: what no scan of these datasets comes near.
 impl Default for AmbiguityParams {
@@ -100,6 +125,7 @@ impl Default for AmbiguityParams {
             rotation_steps: 2,
             rotation_step_deg: 0.5,
             near_ratio: 0.9,
+            pinned_ratio: Some(0.8),
             peak_radius_m: 0.15,
             distinct_ratio: 0.95,
             separation_m: 0.5,
@@ -159,6 +185,13 @@ pub struct Ambiguity {
     /// The farthest of them from the window's centre (the lattice pose nearest the result),
     /// metres.
     pub extent_m: f64,
+    /// Where every pose scoring at least [`AmbiguityParams::pinned_ratio`] × the best lies
+    /// within the result's peak ([`AmbiguityParams::peak_radius_m`] from the window's centre),
+    /// the scene pins the result (the module doc), and this is how closely: those poses'
+    /// second moment about the result, each with its cell's spread, as [`Self::term`] is made
+    /// of the near-optimal ones. `None` where the scene does not pin it, or where
+    /// [`AmbiguityParams::pinned_ratio`] did not ask.
+    pub pinned: Option<Matrix3<f64>>,
     /// The window's best pose.
     pub best: ScoredPose,
     /// The best pose of a second, distinct group (see the module doc), when there is one.
@@ -374,8 +407,8 @@ impl LatticeScores {
         let sums = self.lattice_sums(grid, &lattice, centre, step_rad, params.near_ratio);
         let best_sum = sums.iter().copied().max().unwrap_or(0);
         let best_index = sums.iter().position(|&s| s == best_sum).unwrap_or(0);
-        let near: Vec<usize> = (0..sums.len()).filter(|&i| sums[i] > 0).collect();
-        let near_fraction = near.len() as f64 / lattice.len() as f64;
+        let near_poses = sums.iter().filter(|&&s| s > 0).count();
+        let near_fraction = near_poses as f64 / lattice.len() as f64;
         let score = |sum: u64| sum as f64 / full as f64;
         if best_sum == 0 || near_fraction > params.flat_fraction {
             return Err(AmbiguityProblem::FlatScore {
@@ -406,17 +439,10 @@ impl LatticeScores {
             t_ref_src: pose_of(i),
             score: score(sums[i]),
         };
-        // How far the near-optimal poses reach from the result's own cell, in whole cells.
-        let extent_m = near
-            .iter()
-            .map(|&i| {
-                let [dx, dy, _] = lattice.offset(i);
-                f64::from(dx).hypot(f64::from(dy)) * res
-            })
-            .fold(0.0, f64::max);
-        let term = if extent_m > params.peak_radius_m {
+        // The second moment about the result of the poses with a sum, weighted by it.
+        let spread = |sums: &[u64]| {
             let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
-            for &i in &near {
+            for i in (0..sums.len()).filter(|&i| sums[i] > 0) {
                 let e = offset_of(i);
                 let p = sums[i] as f64;
                 moment += e * e.transpose() * p;
@@ -427,6 +453,10 @@ impl LatticeScores {
             // its side squared on each axis.
             let cell = Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0;
             moment / weight + Matrix3::from_diagonal(&cell)
+        };
+        let extent_m = reach_m(&lattice, &sums, res);
+        let term = if extent_m > params.peak_radius_m {
+            spread(&sums)
         } else {
             Matrix3::zeros()
         };
@@ -438,10 +468,24 @@ impl LatticeScores {
                     rival.t_ref_src.translation.vector - pose_of(best_index).translation.vector;
                 apart.norm() > params.separation_m
             });
+        // Beyond the peak at the near-optimal bar, it is not pinned at a looser one; within
+        // it, the poses between the two bars are summed (those known stay known). Within the
+        // peak of no motion, nothing pins (the module doc).
+        let still = result.translation.vector.norm() <= params.peak_radius_m
+            && theta.abs() <= params.rotation_steps as f64 * step_rad;
+        let pinned = match params.pinned_ratio {
+            Some(ratio) if extent_m <= params.peak_radius_m && !still => {
+                let looser = ratio.min(params.near_ratio);
+                let sums = self.lattice_sums(grid, &lattice, centre, step_rad, looser);
+                (reach_m(&lattice, &sums, res) <= params.peak_radius_m).then(|| spread(&sums))
+            }
+            _ => None,
+        };
         Ok(Ambiguity {
             term,
-            near_poses: near.len(),
+            near_poses,
             extent_m,
+            pinned,
             best: scored(best_index),
             rival,
         })
@@ -591,6 +635,18 @@ impl LatticeScores {
         });
         self.rotations.len() - 1
     }
+}
+
+/// How far the poses of `lattice` with a sum (not 0) reach from its centre (the result's own
+/// cell), metres, in whole cells of `res`.
+fn reach_m(lattice: &Lattice, sums: &[u64], res: f64) -> f64 {
+    (0..sums.len())
+        .filter(|&i| sums[i] > 0)
+        .map(|i| {
+            let [dx, dy, _] = lattice.offset(i);
+            f64::from(dx).hypot(f64::from(dy)) * res
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Cell offsets are kept within ±this (far outside any grid, far from `i32` overflow).
@@ -847,6 +903,7 @@ mod tests {
         assert!(a.term[(2, 2)].sqrt() < 1f64.to_radians(), "{}", a.term);
         assert!(a.extent_m > 1.4);
         assert_eq!(a.rival, None, "a ridge is one group");
+        assert_eq!(a.pinned, None, "nothing along the ridge places it");
     }
 
     #[test]
@@ -857,6 +914,16 @@ mod tests {
         assert_eq!(a.term, Matrix3::zeros());
         assert!(a.extent_m <= 0.15, "{}", a.extent_m);
         assert_eq!(a.rival, None);
+        // Pinned: known to the peak, no better than a cell's own spread and no worse than its
+        // radius.
+        let peak = a.pinned.expect("a closed room pins the pose");
+        for axis in 0..2 {
+            assert!(peak[(axis, axis)] >= 0.01 / 12.0 && peak[(axis, axis)] <= 0.15 * 0.15);
+        }
+        // Not at no motion, where a fixed fan's spots coincide whatever the scene.
+        let still = at_truth(&walls, &Isometry2::new(Vector2::new(0.1, 0.05), 0.01));
+        assert_eq!(still.term, Matrix3::zeros());
+        assert_eq!(still.pinned, None);
         // The best pose is the truth, to a cell and a step.
         let d = a.best.t_ref_src.translation.vector - truth.translation.vector;
         assert!(d.norm() < 0.15, "{d}");
@@ -920,6 +987,101 @@ mod tests {
         );
     }
 
+    /// Every pose of `lattice` around `centre` summed cell by cell, nothing pruned.
+    fn brute_sums(
+        grid: &LikelihoodGrid,
+        returns: &[(Point2<f64>, u32)],
+        lattice: &Lattice,
+        centre: Centre,
+        step_rad: f64,
+    ) -> Vec<u64> {
+        (0..lattice.len())
+            .map(|i| {
+                let [dx, dy, r] = lattice.offset(i);
+                let turn = UnitComplex::new(f64::from(centre.rotation + r) * step_rad);
+                let [cx, cy] = centre.cell;
+                returns
+                    .iter()
+                    .map(|&(p, w)| {
+                        let [i, j] = grid.cell_of(&(turn * p));
+                        u64::from(grid.value(0, [i + cx + dx, j + cy + dy])) * u64::from(w)
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Pinned against its definition on every pose of the lattice summed cell by cell: every
+    /// pose at 0.8 × the best or more within 0.15 m of the centre, and then those poses'
+    /// weighted second moment about the result plus a cell's spread; in a room, a pure
+    /// corridor, and corridors with a doorway recess of growing depth.
+    #[test]
+    fn pinned_is_every_pose_above_the_looser_bar_within_the_peak() {
+        let params = AmbiguityParams::default();
+        let step_rad = params.rotation_step_deg.to_radians();
+        let recessed = |depth_m: f64| {
+            let mut walls = corridor(12.0, 1.2);
+            walls.retain(|&[x, y]| !(y > 0.0 && (0.0..1.0).contains(&x)));
+            for i in 0..=20 {
+                let x = i as f64 * 0.05;
+                walls.push([x, 1.2 + depth_m]);
+            }
+            for i in 0..=(depth_m / 0.05) as usize {
+                let y = 1.2 + i as f64 * 0.05;
+                walls.push([0.0, y]);
+                walls.push([1.0, y]);
+            }
+            walls
+        };
+        let mut seen = [false; 2];
+        let scenes = [room(), corridor(60.0, 1.5), recessed(0.3), recessed(1.5)];
+        for walls in &scenes {
+            let grid = grid_of(walls);
+            let truth = Isometry2::new(Vector2::new(0.32, -0.04), 0.004);
+            let source = seen_from(walls, &truth);
+            let returns: Vec<(Point2<f64>, u32)> = source
+                .returns()
+                .iter()
+                .map(|r| (r.point, range_weight(r)))
+                .collect();
+            let lattice = Lattice { w: 15, k: 2 };
+            let centre = Centre {
+                cell: [3, 0],
+                rotation: 0,
+            };
+            let brute = brute_sums(&grid, &returns, &lattice, centre, step_rad);
+            let best = *brute.iter().max().unwrap();
+            let above = |ratio: f64| {
+                let floor = (ratio * best as f64).ceil() as u64;
+                brute.iter().map(move |&s| if s >= floor { s } else { 0 })
+            };
+            let near: Vec<u64> = above(params.near_ratio).collect();
+            let looser: Vec<u64> = above(params.pinned_ratio.unwrap()).collect();
+            let within = reach_m(&lattice, &near, 0.1) <= params.peak_radius_m
+                && reach_m(&lattice, &looser, 0.1) <= params.peak_radius_m;
+            let a = ambiguity(&grid, &source, &truth, &params).unwrap();
+            assert_eq!(a.pinned.is_some(), within);
+            seen[usize::from(within)] = true;
+            if let Some(peak) = a.pinned {
+                let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
+                for (i, &s) in looser.iter().enumerate().filter(|(_, &s)| s > 0) {
+                    let [dx, dy, r] = lattice.offset(i);
+                    let e = Vector3::new(
+                        f64::from(3 + dx) * 0.1 - truth.translation.x,
+                        f64::from(dy) * 0.1 - truth.translation.y,
+                        f64::from(r) * step_rad - truth.rotation.angle(),
+                    );
+                    moment += e * e.transpose() * s as f64;
+                    weight += s as f64;
+                }
+                let cell = Vector3::new(0.01, 0.01, step_rad * step_rad) / 12.0;
+                let want = moment / weight + Matrix3::from_diagonal(&cell);
+                assert!((peak - want).norm() < 1e-12, "{peak} vs {want}");
+            }
+        }
+        assert_eq!(seen, [true, true], "scenes pinned and not");
+    }
+
     /// The pruned sums against every pose of the lattice summed cell by cell: the same
     /// near-optimal poses with the same sums (and 0 elsewhere), on scans with structure (a
     /// room, moved and turned) and without, from fresh scores and from scores that other
@@ -947,20 +1109,7 @@ mod tests {
                 ],
                 rotation: (result.rotation.angle() / step_rad).round() as i32,
             };
-            let brute: Vec<u64> = (0..lattice.len())
-                .map(|i| {
-                    let [dx, dy, r] = lattice.offset(i);
-                    let turn = UnitComplex::new(f64::from(centre.rotation + r) * step_rad);
-                    let [cx, cy] = centre.cell;
-                    returns
-                        .iter()
-                        .map(|&(p, w)| {
-                            let [i, j] = grid.cell_of(&(turn * p));
-                            u64::from(grid.value(0, [i + cx + dx, j + cy + dy])) * u64::from(w)
-                        })
-                        .sum()
-                })
-                .collect();
+            let brute = brute_sums(&grid, &returns, &lattice, centre, step_rad);
             let best = *brute.iter().max().unwrap();
             let floor = (0.9 * best as f64).ceil() as u64;
             let near: Vec<u64> = brute

@@ -3,6 +3,8 @@
 
 use std::fmt::Write as _;
 
+use icp_core::global::ambiguity::AmbiguityParams;
+
 use crate::error::EvalError;
 use crate::measure::report::{ErrorStats, RunReport};
 use crate::measure::stats::Stats;
@@ -251,8 +253,10 @@ fn failures_md(out: &mut String, report: &RunReport) {
     let _ = writeln!(out, "\n## Failures and flags\n");
     let _ = writeln!(
         out,
-        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect (a global search of the pair finds a pose more than {} m or {}° away scoring {} more on the reference's likelihood grid; {}), ambiguous (two distinct poses around the result score nearly alike on that grid, or it cannot say where the scans fit; under the extended covariance modes). Skipped pairs: {}.\n",
+        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}, unless the reference's likelihood grid pins the result: every pose scoring {} × the best around it within {} m of it, away from no motion, under the extended covariance modes), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect (a global search of the pair finds a pose more than {} m or {}° away scoring {} more on the reference's likelihood grid; {}), ambiguous (two distinct poses around the result score nearly alike on that grid, or it cannot say where the scans fit; under the extended covariance modes). Skipped pairs: {}.\n",
         icp_core::quality::DEGENERATE_RATIO,
+        AmbiguityParams::default().pinned_ratio.unwrap_or(1.0),
+        AmbiguityParams::default().peak_radius_m,
         100.0 * icp_core::quality::MIN_OVERLAP,
         icp_core::quality::OVERLAP_GATE_M,
         crate::run::status::SUSPECT_APART_M,
