@@ -111,25 +111,25 @@ pub fn of_registration(
 /// [`crate::run::pair_search::WEAK_CONDITIONING`]).
 ///
 /// A degenerate registration that the lattice pins instead (`Ambiguity::pinned`; not flagged
-/// for it, `PairStatus::Degenerate`) is known to the peak, not to the millimetres its own
-/// covariance (`mode`, closed form times `inflation`) may say along the direction its pairs
-/// leave weak: the term lifts that covariance to the peak's spread where the spread is wider
-/// (`lift_above` at 1), and adds nothing where the covariance already is. Without it
-/// GICP's pinned registrations kept their σ of millimetres (`synthetic:corridor` seeds 7, 11,
-/// 13: HD_GICP's unflagged ANEES/3 2.32, 1.40, 1.60 before the pinning, 3.44, 2.04, 2.39
-/// pinned without the term, 2.35, 1.39, 1.59 with it). The spread is the grid's blur as much
-/// as the scene's, so it over-covers point-to-line, whose own σ there is nearly right: PL_ICP
-/// 0.79, 0.71, 0.76 before, 0.83, 0.73, 0.77 without the term, 0.73, 0.68, 0.72 with it
-/// (`docs/starts-and-flags.md`). Cautious rather than confident was chosen.
+/// for it, `PairStatus::Degenerate`) is known to its lattice cell, not to the millimetres its
+/// own covariance (`mode`, closed form times `inflation`) may say along the direction its pairs
+/// leave weak: the term lifts that covariance to the cell's spread where the spread is wider
+/// (`lift_above` at 1), and adds nothing where the covariance already is. Chosen on
+/// `synthetic:corridor` seeds 7, 11 and 13 (`docs/starts-and-flags.md`): without a term GICP's
+/// pinned registrations kept their σ of millimetres (HD_GICP's unflagged ANEES/3 2.32, 1.40,
+/// 1.60 before the pinning, 3.44, 2.04, 2.39 pinned); lifted to the spread of the poses within
+/// the peak (the grid's blur as much as the scene's), 2.35, 1.39, 1.59, but point-to-line's,
+/// whose own σ there is nearly right, was over-covered (PL_ICP 0.79, 0.71, 0.76 before, 0.73,
+/// 0.68, 0.72); lifted to the cell, 2.39, 1.40, 1.59 and 0.78, 0.70, 0.74.
 pub fn ambiguity_term(run: &PairRun, mode: CovarianceMode, inflation: f64) -> Option<Matrix3<f64>> {
     let ambiguity = run.ambiguity.as_ref()?.as_ref().ok()?;
     let reg = run.result.as_ref().ok()?;
     match ambiguity.pinned {
-        Some(peak) if reg.conditioning.is_some_and(|c| c.degenerate()) => {
+        Some(cell) if reg.conditioning.is_some_and(|c| c.degenerate()) => {
             let Some(Covariance::Bounded(own)) = of_registration(reg, mode, inflation) else {
-                return Some(peak);
+                return Some(cell);
             };
-            Some(lift_above(&own, &peak, 1.0).map_or(peak, |lifted| lifted - own))
+            Some(lift_above(&own, &cell, 1.0).map_or(cell, |lifted| lifted - own))
         }
         _ => Some(ambiguity.term),
     }

@@ -38,10 +38,11 @@
 //! samples a wall at long range or grazing incidence in spots far apart, the grid marks the
 //! spots and not the wall between, and the spots of two scans taken apart along the wall fall
 //! on each other at no motion, a sharp peak there whatever the scene (a slide to a standstill
-//! in a corridor is pinned by it). The pose is then known to the peak, not better: the second
-//! moment of those poses (each with its cell's spread, as in the term) says how closely, for
-//! the caller to use where the pairs' own covariance cannot be trusted along the weak
-//! direction.
+//! in a corridor is pinned by it). The pose is then known to its lattice cell, not better: the
+//! cell's second moment says how closely, for the caller to use where the pairs' own covariance
+//! cannot be trusted along the weak direction. (The poses around the cell within the peak score
+//! high by the grid's own blur, σ a cell, not because the scene allows them: their spread, used
+//! at first, over-covered point-to-line's pinned registrations; `docs/starts-and-flags.md`.)
 //!
 //! # Distinct poses
 //! Where the poses scoring at least `distinct_ratio` × the best fall apart into separate
@@ -187,10 +188,9 @@ pub struct Ambiguity {
     pub extent_m: f64,
     /// Where every pose scoring at least [`AmbiguityParams::pinned_ratio`] × the best lies
     /// within the result's peak ([`AmbiguityParams::peak_radius_m`] from the window's centre),
-    /// the scene pins the result (the module doc), and this is how closely: those poses'
-    /// second moment about the result, each with its cell's spread, as [`Self::term`] is made
-    /// of the near-optimal ones. `None` where the scene does not pin it, or where
-    /// [`AmbiguityParams::pinned_ratio`] did not ask.
+    /// the scene pins the result to its lattice cell (the module doc), and this is how
+    /// closely: the cell's own second moment, `diag(res², res², step²)/12`. `None` where the
+    /// scene does not pin it, or where [`AmbiguityParams::pinned_ratio`] did not ask.
     pub pinned: Option<Matrix3<f64>>,
     /// The window's best pose.
     pub best: ScoredPose,
@@ -439,8 +439,14 @@ impl LatticeScores {
             t_ref_src: pose_of(i),
             score: score(sums[i]),
         };
-        // The second moment about the result of the poses with a sum, weighted by it.
-        let spread = |sums: &[u64]| {
+        // Each pose stands for its cell of the lattice, the pose anywhere in it: the second
+        // moment of a uniform spread over a cell about its centre, a twelfth of its side
+        // squared on each axis.
+        let cell = Matrix3::from_diagonal(
+            &(Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0),
+        );
+        let extent_m = reach_m(&lattice, &sums, res);
+        let term = if extent_m > params.peak_radius_m {
             let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
             for i in (0..sums.len()).filter(|&i| sums[i] > 0) {
                 let e = offset_of(i);
@@ -448,15 +454,7 @@ impl LatticeScores {
                 moment += e * e.transpose() * p;
                 weight += p;
             }
-            // Each pose stands for its cell of the lattice, the pose anywhere in it: the
-            // second moment of a uniform spread over a cell about its centre, a twelfth of
-            // its side squared on each axis.
-            let cell = Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0;
-            moment / weight + Matrix3::from_diagonal(&cell)
-        };
-        let extent_m = reach_m(&lattice, &sums, res);
-        let term = if extent_m > params.peak_radius_m {
-            spread(&sums)
+            moment / weight + cell
         } else {
             Matrix3::zeros()
         };
@@ -477,7 +475,7 @@ impl LatticeScores {
             Some(ratio) if extent_m <= params.peak_radius_m && !still => {
                 let looser = ratio.min(params.near_ratio);
                 let sums = self.lattice_sums(grid, &lattice, centre, step_rad, looser);
-                (reach_m(&lattice, &sums, res) <= params.peak_radius_m).then(|| spread(&sums))
+                (reach_m(&lattice, &sums, res) <= params.peak_radius_m).then_some(cell)
             }
             _ => None,
         };
@@ -914,12 +912,9 @@ mod tests {
         assert_eq!(a.term, Matrix3::zeros());
         assert!(a.extent_m <= 0.15, "{}", a.extent_m);
         assert_eq!(a.rival, None);
-        // Pinned: known to the peak, no better than a cell's own spread and no worse than its
-        // radius.
-        let peak = a.pinned.expect("a closed room pins the pose");
-        for axis in 0..2 {
-            assert!(peak[(axis, axis)] >= 0.01 / 12.0 && peak[(axis, axis)] <= 0.15 * 0.15);
-        }
+        // Pinned: known to its cell.
+        let cell = a.pinned.expect("a closed room pins the pose");
+        assert!((cell[(0, 0)] - 0.01 / 12.0).abs() < 1e-15, "{cell}");
         // Not at no motion, where a fixed fan's spots coincide whatever the scene.
         let still = at_truth(&walls, &Isometry2::new(Vector2::new(0.1, 0.05), 0.01));
         assert_eq!(still.term, Matrix3::zeros());
@@ -1012,8 +1007,8 @@ mod tests {
     }
 
     /// Pinned against its definition on every pose of the lattice summed cell by cell: every
-    /// pose at 0.8 × the best or more within 0.15 m of the centre, and then those poses'
-    /// weighted second moment about the result plus a cell's spread; in a room, a pure
+    /// pose at 0.8 × the best or more within 0.15 m of the centre, and then a cell's spread; in
+    /// a room, a pure
     /// corridor, and corridors with a doorway recess of growing depth.
     #[test]
     fn pinned_is_every_pose_above_the_looser_bar_within_the_peak() {
@@ -1062,21 +1057,10 @@ mod tests {
             let a = ambiguity(&grid, &source, &truth, &params).unwrap();
             assert_eq!(a.pinned.is_some(), within);
             seen[usize::from(within)] = true;
-            if let Some(peak) = a.pinned {
-                let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
-                for (i, &s) in looser.iter().enumerate().filter(|(_, &s)| s > 0) {
-                    let [dx, dy, r] = lattice.offset(i);
-                    let e = Vector3::new(
-                        f64::from(3 + dx) * 0.1 - truth.translation.x,
-                        f64::from(dy) * 0.1 - truth.translation.y,
-                        f64::from(r) * step_rad - truth.rotation.angle(),
-                    );
-                    moment += e * e.transpose() * s as f64;
-                    weight += s as f64;
-                }
-                let cell = Vector3::new(0.01, 0.01, step_rad * step_rad) / 12.0;
-                let want = moment / weight + Matrix3::from_diagonal(&cell);
-                assert!((peak - want).norm() < 1e-12, "{peak} vs {want}");
+            if let Some(cell) = a.pinned {
+                let want =
+                    Matrix3::from_diagonal(&Vector3::new(0.01, 0.01, step_rad * step_rad)) / 12.0;
+                assert!((cell - want).norm() < 1e-15, "{cell} vs {want}");
             }
         }
         assert_eq!(seen, [true, true], "scenes pinned and not");
