@@ -197,6 +197,10 @@ mod tests {
         let want = Matrix3::from_diagonal(&nalgebra::Vector3::new(4.0, 1.0, 1.0));
         assert!((m - want).norm() < 1e-12, "{m}");
         assert_eq!(significant_lift(&Matrix3::zeros(), &e), None);
+        // At a ratio of 1, the smallest covariance as wide as both: diag(4, 1, 1.5).
+        let m = lift_above(&Matrix3::identity(), &e, 1.0).unwrap();
+        let want = Matrix3::from_diagonal(&nalgebra::Vector3::new(4.0, 1.0, 1.5));
+        assert!((m - want).norm() < 1e-12, "{m}");
     }
 
     /// χ²₇(0.95) against the chi-squared distribution itself: its density integrated from 0
