@@ -36,7 +36,9 @@ use crate::{DatasetError, LoadWarning};
 /// The laser's angular layout and range limit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CarmenOptions {
-    /// Field of view, degrees; the beams are spread evenly over it, first beam at its right edge.
+    /// Field of view, degrees: the first beam on its right edge, the others counter-clockwise,
+    /// as far apart as CARMEN's reader takes them (1° for 180 or 181 beams over 180°: see
+    /// `docs/formats.md`).
     pub fov_deg: f64,
     /// Readings at or beyond this range are no-returns, metres.
     pub max_range_m: f64,
@@ -77,6 +79,32 @@ pub const SICK_LMS2XX: SensorModel = SensorModel {
     sigma_r_per_m: 0.0,
     sigma_alpha_rad: 0.5 * std::f64::consts::PI / 180.0,
 };
+
+/// The angular resolutions of the SICK LMS 2xx, degrees.
+const SICK_RESOLUTIONS_DEG: [f64; 3] = [1.0, 0.5, 0.25];
+
+/// The angle between two beams of a `FLASER` line of `n` readings over `fov_deg`, degrees, as
+/// CARMEN's own reader takes it (`carmen_laser_guess_angle_increment`, `readlog.c`): a line
+/// carries no angles, and a SICK LMS 2xx over 180° sends 181 readings 1° apart, or 180 (the
+/// last dropped, a field of view of 179°), likewise 361 or 360 at 0.5°. So the beams are
+/// `fov/n` apart where that is one of the laser's resolutions (the last beam dropped), else
+/// `fov/(n − 1)` (the first and last beams on the edges). Taken as `fov/(n − 1)` for every
+/// `n`, the 180 beams of the public logs were 1.0056° apart and every rotation came out
+/// 0.56 % too large (measured on aces: `docs/formats.md`).
+fn beam_spacing_deg(fov_deg: f64, n: usize) -> f64 {
+    if n < 2 {
+        return 0.0;
+    }
+    let dropped_last = fov_deg / n as f64;
+    if SICK_RESOLUTIONS_DEG
+        .iter()
+        .any(|r| (dropped_last - r).abs() < 1e-9)
+    {
+        dropped_last
+    } else {
+        fov_deg / (n - 1) as f64
+    }
+}
 
 /// What a parse read and skipped.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -215,11 +243,7 @@ pub fn parse<R: Read>(
                 r
             });
         }
-        let step = if n > 1 {
-            options.fov_deg / (n - 1) as f64
-        } else {
-            0.0
-        };
+        let step = beam_spacing_deg(options.fov_deg, n);
         let bearings: Vec<f64> = (0..n)
             .map(|k| (-0.5 * options.fov_deg + step * k as f64).to_radians())
             .collect();

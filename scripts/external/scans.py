@@ -4,8 +4,9 @@ Readers (each gives a list of `Scan`, in file order, with the time icp-eval give
 
 - `carmen:PATH` (`.log` or `.log.gz`): `FLASER n r_1 … r_n x y θ odom_x odom_y odom_θ
   ipc_timestamp host logger_timestamp`, read as `datasets/src/carmen.rs` reads it: the n beams
-  spread evenly over a 180° field of view, first beam at −90°, a reading ≥ 50 m (the maximum
-  range) or = 0 is a no-return, the time is `ipc_timestamp`.
+  over a 180° field of view, first beam at −90°, as far apart as CARMEN's reader takes them
+  (`carmen_beam_spacing_deg`: 1° for 180 or 181 beams), a reading ≥ 50 m (the maximum range)
+  or = 0 is a no-return, the time is `ipc_timestamp`.
 - `csv:DIR`: our own dataset directory (`icp-eval synth --out DIR` writes one): `scans.csv`
   with `scan,timestamp_s,range_m,bearing_rad[,…]`, an empty or zero range a no-return
   (`datasets/src/csvdir.rs`).
@@ -36,6 +37,23 @@ import numpy as np
 CARMEN_FOV_DEG = 180.0
 CARMEN_MAX_RANGE_M = 50.0
 MARINA_DT_S = 1.0
+
+
+# The SICK LMS 2xx's angular resolutions, degrees.
+SICK_RESOLUTIONS_DEG = (1.0, 0.5, 0.25)
+
+
+def carmen_beam_spacing_deg(fov_deg: float, n: int) -> float:
+    """The angle between two beams of a FLASER line, as `datasets/src/carmen.rs` (and CARMEN's
+    own reader, `carmen_laser_guess_angle_increment`) takes it: `fov/n` where that is one of the
+    SICK's resolutions (its last reading dropped: 180 beams over 180° are 1° apart), else
+    `fov/(n − 1)`."""
+    if n < 2:
+        return 0.0
+    dropped_last = fov_deg / n
+    if any(abs(dropped_last - r) < 1e-9 for r in SICK_RESOLUTIONS_DEG):
+        return dropped_last
+    return fov_deg / (n - 1)
 
 
 class DataError(Exception):
@@ -90,7 +108,7 @@ def load_carmen(path: Path) -> list[Scan]:
             if np.any(ranges < 0) or not np.all(np.isfinite(ranges)):
                 raise DataError(f"{where}: a reading is negative or not finite")
             ranges[ranges >= CARMEN_MAX_RANGE_M] = np.nan
-            step_deg = CARMEN_FOV_DEG / (n - 1) if n > 1 else 0.0
+            step_deg = carmen_beam_spacing_deg(CARMEN_FOV_DEG, n)
             bearings = np.radians(-0.5 * CARMEN_FOV_DEG + step_deg * np.arange(n))
             scans.append(Scan(time_s, points_from_polar(ranges, bearings)))
     if not scans:
