@@ -15,20 +15,24 @@ fn flaser(x: f64, y: f64, theta: f64, t: f64) -> String {
     flaser_odom((x, y, theta), (x, y, theta), t)
 }
 
+/// The distance from `(x, y)` to the room's walls x = ±5, y = ±5 along the bearing `a_rad`.
+fn room_range_m((x, y): (f64, f64), a_rad: f64) -> f64 {
+    let (c, s) = (a_rad.cos(), a_rad.sin());
+    let mut r = f64::INFINITY;
+    for (d, wall) in [(c, 5.0 - x), (c, -5.0 - x), (s, 5.0 - y), (s, -5.0 - y)] {
+        if d.abs() > 1e-12 && wall / d > 0.0 {
+            r = r.min(wall / d);
+        }
+    }
+    r
+}
+
 /// The room seen from `(x, y, θ)`, with the odometry fields `odom`.
 fn flaser_odom((x, y, theta): (f64, f64, f64), odom: (f64, f64, f64), t: f64) -> String {
     let n = 181;
     let mut ranges = Vec::new();
     for k in 0..n {
-        let a = theta + (-90.0 + k as f64).to_radians();
-        let (c, s) = (a.cos(), a.sin());
-        // Distance to the walls x = ±5, y = ±5 along (c, s).
-        let mut r = f64::INFINITY;
-        for (d, wall) in [(c, 5.0 - x), (c, -5.0 - x), (s, 5.0 - y), (s, -5.0 - y)] {
-            if d.abs() > 1e-12 && wall / d > 0.0 {
-                r = r.min(wall / d);
-            }
-        }
+        let r = room_range_m((x, y), theta + (-90.0 + k as f64).to_radians());
         ranges.push(format!("{r:.3}"));
     }
     let (ox, oy, ot) = odom;
@@ -45,14 +49,7 @@ fn flaser_beams(n: usize, step_deg: f64, (x, y, theta): (f64, f64, f64), t: f64)
     let tail: Vec<&str> = line.split(' ').skip(2 + 181).collect();
     let ranges: Vec<String> = (0..n)
         .map(|k| {
-            let a = theta + (-90.0 + step_deg * k as f64).to_radians();
-            let (c, s) = (a.cos(), a.sin());
-            let mut r = f64::INFINITY;
-            for (d, wall) in [(c, 5.0 - x), (c, -5.0 - x), (s, 5.0 - y), (s, -5.0 - y)] {
-                if d.abs() > 1e-12 && wall / d > 0.0 {
-                    r = r.min(wall / d);
-                }
-            }
+            let r = room_range_m((x, y), theta + (-90.0 + step_deg * k as f64).to_radians());
             format!("{r:.4}")
         })
         .collect();
