@@ -27,33 +27,36 @@ fn room_range_m((x, y): (f64, f64), a_rad: f64) -> f64 {
     r
 }
 
-/// The room seen from `(x, y, θ)`, with the odometry fields `odom`.
-fn flaser_odom((x, y, theta): (f64, f64, f64), odom: (f64, f64, f64), t: f64) -> String {
-    let n = 181;
-    let mut ranges = Vec::new();
-    for k in 0..n {
-        let r = room_range_m((x, y), theta + (-90.0 + k as f64).to_radians());
-        ranges.push(format!("{r:.3}"));
-    }
-    let (ox, oy, ot) = odom;
+/// The room seen from `(x, y, θ)`, with the odometry fields `odom`: 181 beams 1° apart,
+/// ranges rounded to 1 mm.
+fn flaser_odom(pose: (f64, f64, f64), odom: (f64, f64, f64), t: f64) -> String {
+    flaser_line((181, 1.0, 3), pose, odom, t)
+}
+
+/// The room seen from `(x, y, θ)` by `n` beams `step_deg` apart from −90°, ranges to 0.1 mm, the
+/// odometry fields a copy of the pose.
+fn flaser_beams(n: usize, step_deg: f64, pose: (f64, f64, f64), t: f64) -> String {
+    flaser_line((n, step_deg, 4), pose, pose, t)
+}
+
+/// A `FLASER` line of the room: `n` beams `step_deg` apart from −90° seen from `(x, y, θ)`, the
+/// ranges with `decimals` decimals, the odometry fields `odom`, the times `t`.
+fn flaser_line(
+    (n, step_deg, decimals): (usize, f64, usize),
+    (x, y, theta): (f64, f64, f64),
+    (ox, oy, ot): (f64, f64, f64),
+    t: f64,
+) -> String {
+    let ranges: Vec<String> = (0..n)
+        .map(|k| {
+            let r = room_range_m((x, y), theta + (-90.0 + step_deg * k as f64).to_radians());
+            format!("{r:.decimals$}")
+        })
+        .collect();
     format!(
         "FLASER {n} {} {x} {y} {theta} {ox} {oy} {ot} {t} localhost {t}",
         ranges.join(" ")
     )
-}
-
-/// The room seen from `(x, y, θ)` by `n` beams `step_deg` apart from −90°, as a `FLASER` line.
-fn flaser_beams(n: usize, step_deg: f64, (x, y, theta): (f64, f64, f64), t: f64) -> String {
-    let line = flaser_odom((x, y, theta), (x, y, theta), t);
-    // The room's ranges, recomputed for this layout: the 181-beam line's fields after them.
-    let tail: Vec<&str> = line.split(' ').skip(2 + 181).collect();
-    let ranges: Vec<String> = (0..n)
-        .map(|k| {
-            let r = room_range_m((x, y), theta + (-90.0 + step_deg * k as f64).to_radians());
-            format!("{r:.4}")
-        })
-        .collect();
-    format!("FLASER {n} {} {}", ranges.join(" "), tail.join(" "))
 }
 
 fn small_log() -> String {
