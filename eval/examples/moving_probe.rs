@@ -6,7 +6,10 @@
 //! (the second argument overrides parameters of the defaults).
 
 use datasets::ScanPair;
-use icp_core::moving::{neighbour_poses, FreeSpace, MovingReturns, Neighbour, RangeImage};
+use icp_core::moving::{
+    beside, left_out_points, neighbour_poses, Detection, FreeSpace, MovingReturns, Neighbour,
+    RangeImage,
+};
 use icp_core::registry::Params;
 use nalgebra::{Matrix3, Vector3};
 
@@ -38,17 +41,25 @@ fn main() -> anyhow::Result<()> {
         })
         .collect();
     let images: Vec<RangeImage> = ds.scans.iter().map(RangeImage::new).collect();
+    let detected: Vec<Detection> = (0..n)
+        .map(|k| {
+            let neighbours: Vec<Neighbour> = neighbour_poses(&steps, k, detector.lag_scans)
+                .into_iter()
+                .map(|(j, t_nb_scan, covariance)| Neighbour {
+                    image: &images[j],
+                    t_nb_scan,
+                    covariance,
+                })
+                .collect();
+            detector.detect(&ds.scans[k], &neighbours, &ds.sensor)
+        })
+        .collect();
     let (mut moving, mut moving_out, mut stat, mut stat_out, mut seen) = (0, 0, 0, 0, 0);
     for k in 0..n {
-        let neighbours: Vec<Neighbour> = neighbour_poses(&steps, k, detector.lag_scans)
-            .into_iter()
-            .map(|(j, t_nb_scan, covariance)| Neighbour {
-                image: &images[j],
-                t_nb_scan,
-                covariance,
-            })
-            .collect();
-        let d = detector.detect(&ds.scans[k], &neighbours, &ds.sensor);
+        let [before, after] = beside(k, &steps, |j, t_k_j| {
+            left_out_points(&ds.scans[j], &detected[j], t_k_j)
+        });
+        let d = detector.fill_between(&ds.scans[k], detected[k].clone(), &before, &after);
         let Some(labels) = ds.scans[k].moving() else {
             anyhow::bail!("{spec} has no moving labels");
         };

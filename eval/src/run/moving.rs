@@ -1,6 +1,8 @@
 //! The second pass of a variant with a detector of moving returns ([`icp_core::moving`]): once
 //! every consecutive pair is registered, each scan's detector runs against its neighbours
-//! (k−L..k+L, chained through the same variant's registrations whose status is `ok`), and
+//! (k−L..k+L, chained through the same variant's registrations whose status is `ok`), each
+//! scan's detection is completed from what the scans on either side left out
+//! ([`MovingReturns::fill_between`]), and
 //! every pair whose scans have returns left out is registered again without them, starting
 //! from its first result (`again`). The first result's global check and ambiguity are kept
 //! (the second starts in its basin). A pair whose evidence is split is flagged `dynamic`,
@@ -24,7 +26,10 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
-use icp_core::moving::{neighbour_poses, Detection, Neighbour, Placement, RangeImage, Step};
+use icp_core::moving::{
+    beside, left_out_points, neighbour_poses, Detection, MovingReturns, Neighbour, Placement,
+    RangeImage, Step,
+};
 use icp_core::registry::StageSpec;
 use icp_core::spec::VariantSpec;
 use icp_core::variants::placement_chain;
@@ -392,27 +397,50 @@ pub fn detect(
             let sensor = reg.spec().sensor;
             let inflation = closed_form_inflation(&reg.spec().metric);
             let steps = steps(ds.scans.len(), pairs, variant_runs, inflation);
-            Some(
-                scans
-                    .par_iter()
-                    .map(|&k| {
-                        let clock = Instant::now();
-                        let neighbours: Vec<Neighbour> =
-                            neighbour_poses(&steps, k, detector.lag_scans())
-                                .into_iter()
-                                .filter_map(|(j, t_nb_scan, covariance)| {
-                                    Some(Neighbour {
-                                        image: images.get(&j)?,
-                                        t_nb_scan,
-                                        covariance,
-                                    })
+            let detected: Detections = scans
+                .par_iter()
+                .map(|&k| {
+                    let clock = Instant::now();
+                    let neighbours: Vec<Neighbour> =
+                        neighbour_poses(&steps, k, detector.lag_scans())
+                            .into_iter()
+                            .filter_map(|(j, t_nb_scan, covariance)| {
+                                Some(Neighbour {
+                                    image: images.get(&j)?,
+                                    t_nb_scan,
+                                    covariance,
                                 })
-                                .collect();
-                        let detection = detector.detect(&ds.scans[k], &neighbours, &sensor);
-                        (k, (detection, clock.elapsed().as_secs_f64() * 1e6))
-                    })
-                    .collect(),
-            )
+                            })
+                            .collect();
+                    let detection = detector.detect(&ds.scans[k], &neighbours, &sensor);
+                    (k, (detection, clock.elapsed().as_secs_f64() * 1e6))
+                })
+                .collect();
+            Some(fill_between(ds, detector, &steps, &detected))
+        })
+        .collect()
+}
+
+/// Each scan's detection in `detected` completed from what the scans on either side left out
+/// (placed by `steps`; [`MovingReturns::fill_between`]), each from the detections before any
+/// was completed.
+fn fill_between(
+    ds: &Dataset,
+    detector: &dyn MovingReturns,
+    steps: &[Option<Step>],
+    detected: &Detections,
+) -> Detections {
+    detected
+        .par_iter()
+        .map(|(&k, (detection, us))| {
+            let clock = Instant::now();
+            let [before, after] = beside(k, steps, |j, t_k_j| {
+                detected
+                    .get(&j)
+                    .map_or_else(Vec::new, |(d, _)| left_out_points(&ds.scans[j], d, t_k_j))
+            });
+            let filled = detector.fill_between(&ds.scans[k], detection.clone(), &before, &after);
+            (k, (filled, us + clock.elapsed().as_secs_f64() * 1e6))
         })
         .collect()
 }

@@ -6,6 +6,9 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use nalgebra::Point2;
+
+use super::between::Between;
 use super::range_image::Window;
 use super::segments::{extent_m, segments};
 use super::{Detection, MovingReturns, Neighbour, Placement, FREE_SPACE};
@@ -65,6 +68,14 @@ pub struct FreeSpace {
     /// samples) left out above which the scan's evidence for one motion is split: the pair is
     /// flagged `dynamic`.
     pub max_moving_share: f64,
+    /// Once every scan is detected, a surface kept whole (no longer than `max_extent_m`) is
+    /// left out when its returns lie within this distance of returns left out of both the scan
+    /// before and the scan after, placed by their registrations, m (0: never). A hull's side
+    /// that slides along itself is seen to move in some scans and not in others; the static
+    /// scene is seldom left out at one place by the scans on both sides.
+    pub between_gap_m: f64,
+    /// …for at least this share of the surface's returns.
+    pub between_min_share: f64,
 }
 
 impl Default for FreeSpace {
@@ -83,6 +94,8 @@ impl Default for FreeSpace {
             min_returns: 5,
             max_neighbour_share: 0.15,
             max_moving_share: 0.5,
+            between_gap_m: 0.5,
+            between_min_share: 0.25,
         }
     }
 }
@@ -102,6 +115,7 @@ impl Params for FreeSpace {
         let non_negative = [
             ("min_gap_m", self.min_gap_m),
             ("half_width_beams", self.half_width_beams),
+            ("between_gap_m", self.between_gap_m),
         ];
         for (name, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {
@@ -112,6 +126,7 @@ impl Params for FreeSpace {
             ("min_share", self.min_share),
             ("max_moving_share", self.max_moving_share),
             ("max_neighbour_share", self.max_neighbour_share),
+            ("between_min_share", self.between_min_share),
         ] {
             if !(0.0..=1.0).contains(&value) {
                 return Err(ParamError::new(name, value, "must be within [0, 1]"));
@@ -233,6 +248,26 @@ impl MovingReturns for FreeSpace {
             seen.iter().filter(|&&s| s).count(),
             self.max_moving_share,
         )
+    }
+
+    fn fill_between(
+        &self,
+        scan: &Scan,
+        detection: Detection,
+        before: &[Point2<f64>],
+        after: &[Point2<f64>],
+    ) -> Detection {
+        if self.between_gap_m == 0.0 {
+            return detection;
+        }
+        let between = Between {
+            gap_m: self.between_gap_m,
+            min_share: self.between_min_share,
+            segment_gap_m: self.segment_gap_m,
+            max_extent_m: self.max_extent_m,
+        };
+        let left_out = between.fill(scan, &detection.left_out, before, after);
+        Detection::new(scan, left_out, detection.seen, self.max_moving_share)
     }
 }
 

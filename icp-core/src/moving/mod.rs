@@ -19,7 +19,8 @@
 //! from the scans after (it has left). The margin comes from the sensor model (eq. 8 of Naus &
 //! Marchel 2019, both ranges) and the chained covariance along the ray, not from the pair's
 //! residuals. A surface short enough to be a hull is then left out whole when enough of its
-//! returns are seen to move ([`segments`]): its sides go with its ends.
+//! returns are seen to move ([`segments`]): its sides go with its ends. A surface kept in a
+//! scan but lying where the scans on both sides left returns out goes too ([`between`]).
 //!
 //! **Where it runs.** A detector needs the sequence, not one pair: the harness registers every
 //! pair, detects in each scan from its neighbours' placed by a chain of registrations
@@ -28,15 +29,17 @@
 //! for PL_ICP, HD_PL_ICP, GICP and HD_GICP and off for the paper's four variants, whose loop
 //! stays the paper's.
 
+mod between;
 mod chain;
 mod free_space;
 mod range_image;
 mod segments;
 
-use nalgebra::{Isometry2, Matrix3};
+use nalgebra::{Isometry2, Matrix3, Point2};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+pub use between::{beside, left_out_points, Between};
 pub use chain::{neighbour_poses, Step};
 pub use free_space::FreeSpace;
 pub use range_image::{RangeImage, Window};
@@ -135,6 +138,20 @@ pub trait MovingReturns: Send + Sync {
 
     /// The returns of `scan` to leave out, judged against `neighbours` under `sensor`.
     fn detect(&self, scan: &Scan, neighbours: &[Neighbour<'_>], sensor: &SensorModel) -> Detection;
+
+    /// Once every scan is detected: `detection` of `scan` completed from what the scans on
+    /// either side left out (`before`, `after`: their left-out returns in `scan`'s frame;
+    /// empty where a scan or its placing registration is missing). Unchanged by default.
+    fn fill_between(
+        &self,
+        scan: &Scan,
+        detection: Detection,
+        before: &[Point2<f64>],
+        after: &[Point2<f64>],
+    ) -> Detection {
+        let _ = (scan, before, after);
+        detection
+    }
 }
 
 /// Every registered detector of moving returns, one line each.
