@@ -7,8 +7,7 @@
 
 use datasets::ScanPair;
 use icp_core::moving::{
-    beside, left_out_points, neighbour_poses, Detection, FreeSpace, MovingReturns, Neighbour,
-    RangeImage,
+    beside, left_out_points, Detection, FreeSpace, MovingReturns, Neighbour, RangeImage,
 };
 use icp_core::registry::Params;
 use nalgebra::{Matrix3, Vector3};
@@ -43,14 +42,7 @@ fn main() -> anyhow::Result<()> {
     let images: Vec<RangeImage> = ds.scans.iter().map(RangeImage::new).collect();
     let detected: Vec<Detection> = (0..n)
         .map(|k| {
-            let neighbours: Vec<Neighbour> = neighbour_poses(&steps, k, detector.lag_scans)
-                .into_iter()
-                .map(|(j, t_nb_scan, covariance)| Neighbour {
-                    image: &images[j],
-                    t_nb_scan,
-                    covariance,
-                })
-                .collect();
+            let neighbours = Neighbour::placed(&steps, k, detector.lag_scans, |j| images.get(j));
             detector.detect(&ds.scans[k], &neighbours, &ds.sensor)
         })
         .collect();

@@ -27,8 +27,7 @@ use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
 use icp_core::moving::{
-    beside, left_out_points, neighbour_poses, Detection, MovingReturns, Neighbour, Placement,
-    RangeImage, Step,
+    beside, left_out_points, Detection, MovingReturns, Neighbour, Placement, RangeImage, Step,
 };
 use icp_core::registry::StageSpec;
 use icp_core::spec::VariantSpec;
@@ -401,17 +400,8 @@ pub fn detect(
                 .par_iter()
                 .map(|&k| {
                     let clock = Instant::now();
-                    let neighbours: Vec<Neighbour> =
-                        neighbour_poses(&steps, k, detector.lag_scans())
-                            .into_iter()
-                            .filter_map(|(j, t_nb_scan, covariance)| {
-                                Some(Neighbour {
-                                    image: images.get(&j)?,
-                                    t_nb_scan,
-                                    covariance,
-                                })
-                            })
-                            .collect();
+                    let neighbours =
+                        Neighbour::placed(&steps, k, detector.lag_scans(), |j| images.get(&j));
                     let detection = detector.detect(&ds.scans[k], &neighbours, &sensor);
                     (k, (detection, clock.elapsed().as_secs_f64() * 1e6))
                 })

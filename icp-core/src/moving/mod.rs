@@ -58,6 +58,29 @@ pub struct Neighbour<'a> {
     pub covariance: Matrix3<f64>,
 }
 
+impl<'a> Neighbour<'a> {
+    /// Scan `k`'s neighbours within `lag` scans on each side, placed by chaining `steps`
+    /// ([`neighbour_poses`]), each with its range image `image(j)` (a scan without one is
+    /// left out).
+    pub fn placed(
+        steps: &[Option<Step>],
+        k: usize,
+        lag: usize,
+        image: impl Fn(usize) -> Option<&'a RangeImage>,
+    ) -> Vec<Self> {
+        neighbour_poses(steps, k, lag)
+            .into_iter()
+            .filter_map(|(j, t_nb_scan, covariance)| {
+                Some(Self {
+                    image: image(j)?,
+                    t_nb_scan,
+                    covariance,
+                })
+            })
+            .collect()
+    }
+}
+
 /// What a detection found in one scan.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Detection {
