@@ -10,8 +10,9 @@
 //! (whatever was assessed before it, in any order), so it does not depend on which variants a
 //! shard holds, nor on the threads.
 //!
-//! A check asks only the question the suspect rule asks: does a pose score more than the
-//! result plus [`SUSPECT_SCORE_GAIN`](crate::run::status::SUSPECT_SCORE_GAIN)? The branch and bound searches above that bar alone
+//! A check asks only the question the suspect rule asks: does a pose score
+//! [`clearly_better`] than the result (by [`SUSPECT_SCORE_GAIN`](crate::run::status::SUSPECT_SCORE_GAIN),
+//! or by a share of the result's score where that is less)? The branch and bound searches above that bar alone
 //! ([`GlobalMatcher::best_above`]): when nothing clears it (a right result) it proves the
 //! answer no early; when something does, it finds the search's best pose, the one the rule has
 //! always been applied to. The decisions are those of a check against the full search.
