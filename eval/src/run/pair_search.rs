@@ -189,7 +189,7 @@ pub type Answers = (
 /// [`AmbiguityParams::rotation_step_deg`], in rotation): then the check's score and the
 /// lattice around the old pose no longer describe it. Within the peak the answers are the
 /// old pose's neighbours' (the lattice is centred on the lattice pose nearest the result).
-fn left_the_peak(checked: &Isometry2<f64>, now: &Isometry2<f64>) -> bool {
+pub(crate) fn left_the_peak(checked: &Isometry2<f64>, now: &Isometry2<f64>) -> bool {
     let lattice = AmbiguityParams::default();
     let (apart_m, apart_deg) = crate::run::status::apart(checked, now);
     apart_m > lattice.peak_radius_m
