@@ -256,7 +256,6 @@ fn a_scan_whose_scene_mostly_moves_flags_its_pairs() {
             eval::run::setup::GlobalChecks::On,
         );
     let report = evaluate(&ds, &setup, &ProgressBar::hidden()).unwrap();
-    let mut isolated = 0;
     for r in &report.pairs {
         let touches = r.source == k || r.reference == k;
         assert_eq!(
@@ -278,7 +277,6 @@ fn a_scan_whose_scene_mostly_moves_flags_its_pairs() {
             );
         }
         if r.status == StatusKind::Isolated {
-            isolated += 1;
             assert!(
                 r.status_reason.contains("scan 20 fits neither neighbour"),
                 "{}",
@@ -286,6 +284,20 @@ fn a_scan_whose_scene_mostly_moves_flags_its_pairs() {
             );
         }
     }
-    // GICP registered the pulled-in scan onto its successor without a flag of its own.
-    assert!(isolated > 0, "no pair flagged for its isolated scan");
+    // GICP's registration of the pulled-in scan onto its successor (10 m off) was once `ok`
+    // by its own check, and flagged `isolated` from the placing registrations; the check's
+    // relative bar now flags it `suspect` itself (a pose scoring 0.18 against its 0.15). Either
+    // way it says the scan does not fit; the `isolated` rule is tested in `run::moving`'s
+    // unit tests.
+    let gicp = report
+        .pairs
+        .iter()
+        .find(|r| r.variant == "GICP" && r.source == k && r.reference == k + 1)
+        .expect("GICP's pair from the pulled-in scan");
+    assert!(
+        matches!(gicp.status, StatusKind::Suspect | StatusKind::Isolated),
+        "{:?} {}",
+        gicp.status,
+        gicp.status_reason
+    );
 }

@@ -8,6 +8,7 @@ use super::again::{again, Masked};
 use super::*;
 use crate::run::pair_search::assess_alone;
 use crate::run::setup::EvalSetup;
+use crate::run::status::StatusKind;
 use icp_core::global::GlobalParams;
 
 /// PL_ICP, but every registration lands this many metres to the side of where PL_ICP would:
@@ -160,5 +161,101 @@ fn a_second_result_off_the_first_ones_peak_is_checked_again() {
     assert_eq!(
         beyond.status,
         PairStatus::of(&beyond.result, expected.as_ref(), ambiguity.as_ref())
+    );
+}
+
+/// A scan whose placing registrations on both sides see another scene (no overlap onto it,
+/// suspect from it) fits neither neighbour; a variant's `ok` pair with it is flagged
+/// `isolated` where the variant's own registration on its other side is flagged too, and kept
+/// where the variant registered both sides `ok`. Weak geometry (degenerate) on one side is
+/// not another scene. (The end-to-end case, `tests/failures.rs`, is now flagged by the
+/// variant's own global check before this rule speaks.)
+#[test]
+fn a_scan_both_placing_registrations_lose_is_isolated_where_the_variant_agrees() {
+    let pairs: Vec<ScanPair> = (0..4)
+        .map(|k| ScanPair {
+            source: k,
+            reference: k + 1,
+        })
+        .collect();
+    let run = |status: PairStatus| PairRun {
+        result: Err(IcpError::NonFiniteTransform),
+        status,
+        check: None,
+        ambiguity: None,
+        init: None,
+        attempts: 0,
+        time_us: None,
+        left_out: None,
+    };
+    let suspect = || PairStatus::Suspect {
+        check: crate::run::status::GlobalCheck {
+            best_t_ref_src: Some(Isometry2::translation(5.0, 0.0)),
+            best_score: 0.6,
+            result_t_ref_src: Isometry2::identity(),
+            result_score: 0.2,
+        },
+    };
+    let no_overlap = || PairStatus::NoOverlap { overlap: 0.03 };
+    let chain = |onto: PairStatus| {
+        vec![
+            run(PairStatus::Ok),
+            run(onto),
+            run(suspect()),
+            run(PairStatus::Ok),
+        ]
+    };
+    let weak = isolated(&pairs, &chain(PairStatus::Degenerate { cond_ratio: 1e-3 }));
+    assert!(weak.is_empty(), "degenerate is weak geometry: {weak:?}");
+    let lost = isolated(&pairs, &chain(no_overlap()));
+    assert_eq!(lost.keys().copied().collect::<Vec<_>>(), vec![2]);
+    let PairStatus::Isolated {
+        scan,
+        before,
+        after,
+    } = &lost[&2]
+    else {
+        panic!("{:?}", lost[&2]);
+    };
+    assert_eq!(*scan, 2);
+    assert!(before.starts_with("no_overlap"), "{before}");
+    assert!(after.starts_with("suspect"), "{after}");
+
+    // Variant 0 flagged its own 2 → 3; variant 1 registered every pair `ok`.
+    let mut runs = Runs {
+        per_variant: vec![
+            vec![
+                run(PairStatus::Ok),
+                run(PairStatus::Ok),
+                run(suspect()),
+                run(PairStatus::Ok),
+            ],
+            (0..4).map(|_| run(PairStatus::Ok)).collect(),
+        ],
+        prepare_us: Vec::new(),
+        searches: Vec::new(),
+    };
+    let unjudged = confirmed(&pairs, vec![lost.clone(), lost], &runs);
+    flag_isolated(&pairs, &unjudged, &mut runs);
+    let kinds = |v: usize| -> Vec<StatusKind> {
+        runs.per_variant[v]
+            .iter()
+            .map(|r| r.status.kind())
+            .collect()
+    };
+    assert_eq!(
+        kinds(0),
+        vec![
+            StatusKind::Ok,
+            StatusKind::Isolated,
+            StatusKind::Suspect,
+            StatusKind::Ok
+        ],
+        "its ok pair onto the scan is flagged, its own flag kept"
+    );
+    assert_eq!(
+        kinds(1),
+        vec![StatusKind::Ok; 4],
+        "the variant saw one scene"
     );
 }
