@@ -397,6 +397,15 @@ pub fn clearly_better(score: f64, result_score: f64) -> bool {
     score - result_score > SUSPECT_SCORE_GAIN.min(SUSPECT_SCORE_SHARE * result_score)
 }
 
+/// The suspect rule in words, for the reports.
+pub fn suspect_rule() -> String {
+    format!(
+        "a global search of the pair finds a pose more than {SUSPECT_APART_M} m or \
+         {SUSPECT_APART_DEG}° away scoring {SUSPECT_SCORE_GAIN} more on the reference's \
+         likelihood grid, or {SUSPECT_SCORE_SHARE} × the result's score more where that is less"
+    )
+}
+
 impl GlobalCheck {
     /// How far the search's best pose is from the result: translation m, rotation degrees
     /// (`None` without the best pose).

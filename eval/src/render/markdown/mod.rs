@@ -253,16 +253,13 @@ fn failures_md(out: &mut String, report: &RunReport) {
     let _ = writeln!(out, "\n## Failures and flags\n");
     let _ = writeln!(
         out,
-        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}, unless the reference's likelihood grid pins the result: every pose scoring {} × the best around it within {} m of it, away from no motion, under the extended covariance modes), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect (a global search of the pair finds a pose more than {} m or {}° away scoring {} more on the reference's likelihood grid, or {} × the result's score more where that is less; {}), ambiguous (two distinct poses around the result score nearly alike on that grid, or it cannot say where the scans fit; under the extended covariance modes). Skipped pairs: {}.\n",
+        "A pair is a failure of a variant when it is not registered or its registration is flagged: degenerate (conditioning ratio below {}, unless the reference's likelihood grid pins the result: every pose scoring {} × the best around it within {} m of it, away from no motion, under the extended covariance modes), no overlap (fewer than {:.0} % of the final pairs within {} m), suspect ({}; {}), ambiguous (two distinct poses around the result score nearly alike on that grid, or it cannot say where the scans fit; under the extended covariance modes). Skipped pairs: {}.\n",
         icp_core::quality::DEGENERATE_RATIO,
         AmbiguityParams::default().pinned_ratio.unwrap_or(1.0),
         AmbiguityParams::default().peak_radius_m,
         100.0 * icp_core::quality::MIN_OVERLAP,
         icp_core::quality::OVERLAP_GATE_M,
-        crate::run::status::SUSPECT_APART_M,
-        crate::run::status::SUSPECT_APART_DEG,
-        crate::run::status::SUSPECT_SCORE_GAIN,
-        crate::run::status::SUSPECT_SCORE_SHARE,
+        crate::run::status::suspect_rule(),
         match (&report.global_search, report.config.global_check) {
             (Some(g), crate::run::setup::GlobalChecks::On) => format!(
                 "checked on {} pairs, {} searches failed",
