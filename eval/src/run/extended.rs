@@ -41,7 +41,7 @@ use icp_core::covariance::JACKKNIFE_SECTORS;
 use icp_core::{Covariance, Registration};
 use nalgebra::Matrix3;
 
-use crate::run::covariance::{reported, CovarianceMode};
+use crate::run::covariance::{pose_error, reported, CovarianceMode};
 use crate::run::pair_search::left_the_peak;
 use crate::run::runner::PairRun;
 use crate::run::status::GlobalCheck;
@@ -178,11 +178,7 @@ pub fn better_pose_term(check: &GlobalCheck) -> Option<Matrix3<f64>> {
     if !left_the_peak(&result, &best) {
         return None;
     }
-    let d = nalgebra::Vector3::new(
-        best.translation.x - result.translation.x,
-        best.translation.y - result.translation.y,
-        (result.rotation.inverse() * best.rotation).angle(),
-    );
+    let d = pose_error(&best, &result);
     Some(d * d.transpose())
 }
 
