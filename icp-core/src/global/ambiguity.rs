@@ -404,10 +404,16 @@ impl LatticeScores {
         };
         let total: u64 = self.returns.iter().map(|&(_, w)| u64::from(w)).sum();
         let full = total * u64::from(FULL_SCALE);
-        let sums = self.lattice_sums(grid, &lattice, centre, step_rad, params.near_ratio);
-        let best_sum = sums.iter().copied().max().unwrap_or(0);
-        let best_index = sums.iter().position(|&s| s == best_sum).unwrap_or(0);
-        let near_poses = sums.iter().filter(|&&s| s > 0).count();
+        let NearSums { sums, near } =
+            self.lattice_sums(grid, &lattice, centre, step_rad, params.near_ratio);
+        let best_sum = near.iter().map(|&i| sums[i]).max().unwrap_or(0);
+        // The first of the best in the lattice's order.
+        let best_index = near
+            .iter()
+            .copied()
+            .find(|&i| sums[i] == best_sum)
+            .unwrap_or(0);
+        let near_poses = near.len();
         let near_fraction = near_poses as f64 / lattice.len() as f64;
         let score = |sum: u64| sum as f64 / full as f64;
         if best_sum == 0 || near_fraction > params.flat_fraction {
@@ -445,10 +451,10 @@ impl LatticeScores {
         let cell = Matrix3::from_diagonal(
             &(Vector3::new(res * res, res * res, step_rad * step_rad) / 12.0),
         );
-        let extent_m = reach_m(&lattice, &sums, res);
+        let extent_m = reach_m(&lattice, &near, res);
         let term = if extent_m > params.peak_radius_m {
             let (mut moment, mut weight) = (Matrix3::zeros(), 0.0);
-            for i in (0..sums.len()).filter(|&i| sums[i] > 0) {
+            for &i in &near {
                 let e = offset_of(i);
                 let p = sums[i] as f64;
                 moment += e * e.transpose() * p;
@@ -459,7 +465,7 @@ impl LatticeScores {
             Matrix3::zeros()
         };
         let distinct_floor = (params.distinct_ratio * best_sum as f64).ceil() as u64;
-        let rival = rival_group(&lattice, &sums, distinct_floor.max(1), best_index)
+        let rival = rival_group(&lattice, (&sums, &near), distinct_floor.max(1), best_index)
             .map(scored)
             .filter(|rival| {
                 let apart =
@@ -474,8 +480,8 @@ impl LatticeScores {
         let pinned = match params.pinned_ratio {
             Some(ratio) if extent_m <= params.peak_radius_m && !still => {
                 let looser = ratio.min(params.near_ratio);
-                let sums = self.lattice_sums(grid, &lattice, centre, step_rad, looser);
-                (reach_m(&lattice, &sums, res) <= params.peak_radius_m).then_some(cell)
+                let looser = self.lattice_sums(grid, &lattice, centre, step_rad, looser);
+                (reach_m(&lattice, &looser.near, res) <= params.peak_radius_m).then_some(cell)
             }
             _ => None,
         };
@@ -503,7 +509,7 @@ impl LatticeScores {
         centre: Centre,
         step_rad: f64,
         ratio: f64,
-    ) -> Vec<u64> {
+    ) -> NearSums {
         let slots: Vec<usize> = (-lattice.k..=lattice.k)
             .map(|r| self.rotation(grid, centre.rotation + r, centre.cell, lattice.w, step_rad))
             .collect();
@@ -511,6 +517,8 @@ impl LatticeScores {
         let window = grid.window_cells();
         let [cx, cy] = centre.cell;
         let mut sums = vec![0u64; lattice.len()];
+        // Every pose given a sum, to be read instead of the whole lattice.
+        let mut summed = Vec::new();
         let mut best = 0u64;
         let side = lattice.side();
         for (r, &slot) in (-lattice.k..).zip(&slots) {
@@ -520,9 +528,10 @@ impl LatticeScores {
                 let from = rotation.at(0, [cx - w, cy + dy], window);
                 let to = lattice.index([-w, dy, r]);
                 let known = &rotation.known[0][from..from + side];
-                for (sum, k) in sums[to..to + side].iter_mut().zip(known) {
+                for (i, k) in (to..to + side).zip(known) {
                     if let Some(s) = k.sum() {
-                        *sum = s;
+                        sums[i] = s;
+                        summed.push(i);
                         best = best.max(s);
                     }
                 }
@@ -542,6 +551,7 @@ impl LatticeScores {
                 grid,
                 chunk_sums: &mut self.chunk_sums,
                 sums: &mut sums,
+                summed: &mut summed,
                 lattice,
                 centre: [cx, cy],
                 r,
@@ -557,12 +567,15 @@ impl LatticeScores {
         }
         // Poses summed before the best rose to its final height may lie below `ratio` × it.
         let floor = (ratio * best as f64).ceil() as u64;
-        for s in &mut sums {
-            if *s < floor {
-                *s = 0;
+        summed.sort_unstable();
+        summed.dedup();
+        summed.retain(|&i| {
+            if sums[i] < floor {
+                sums[i] = 0;
             }
-        }
-        sums
+            sums[i] > 0
+        });
+        NearSums { sums, near: summed }
     }
 
     /// The slot of rotation `rotation`'s scores whose offsets reach `cell ± w` and the blocks
@@ -635,12 +648,21 @@ impl LatticeScores {
     }
 }
 
-/// How far the poses of `lattice` with a sum (not 0) reach from its centre (the result's own
-/// cell), metres, in whole cells of `res`.
-fn reach_m(lattice: &Lattice, sums: &[u64], res: f64) -> f64 {
-    (0..sums.len())
-        .filter(|&i| sums[i] > 0)
-        .map(|i| {
+/// The near-optimal poses of a lattice ([`LatticeScores::lattice_sums`]).
+#[derive(Debug, PartialEq)]
+struct NearSums {
+    /// Each pose's sum, 0 where it is not near-optimal; in the lattice's order.
+    sums: Vec<u64>,
+    /// The near-optimal poses (a sum above 0), in the lattice's order: a few hundred of its
+    /// thousands, read instead of all of them.
+    near: Vec<usize>,
+}
+
+/// How far the poses `near` of `lattice` reach from its centre (the result's own cell),
+/// metres, in whole cells of `res`.
+fn reach_m(lattice: &Lattice, near: &[usize], res: f64) -> f64 {
+    near.iter()
+        .map(|&i| {
             let [dx, dy, _] = lattice.offset(i);
             f64::from(dx).hypot(f64::from(dy)) * res
         })
@@ -719,6 +741,7 @@ struct Pass<'a> {
     grid: &'a LikelihoodGrid,
     chunk_sums: &'a mut Vec<u64>,
     sums: &'a mut Vec<u64>,
+    summed: &'a mut Vec<usize>,
     lattice: &'a Lattice,
     centre: [i32; 2],
     r: i32,
@@ -744,7 +767,9 @@ impl Pass<'_> {
         };
         if level == 0 {
             let [dx, dy] = [cell[0] - self.centre[0], cell[1] - self.centre[1]];
-            self.sums[self.lattice.index([dx, dy, self.r])] = s;
+            let i = self.lattice.index([dx, dy, self.r]);
+            self.sums[i] = s;
+            self.summed.push(i);
             *self.best = (*self.best).max(s);
             return;
         }
@@ -760,19 +785,29 @@ impl Pass<'_> {
     }
 }
 
-/// The best pose of the best group of poses scoring at least `floor` other than the group of
-/// `best_index` (groups: connected on the lattice, diagonals included).
-fn rival_group(lattice: &Lattice, sums: &[u64], floor: u64, best_index: usize) -> Option<usize> {
-    let mut group = vec![usize::MAX; sums.len()];
+/// The best pose of the best group of poses scoring at least `floor` (at least 1) other than
+/// the group of `best_index` (groups: connected on the lattice, diagonals included), from the
+/// lattice's `sums` and its near-optimal poses `near` (in the lattice's order, as
+/// [`NearSums`]).
+fn rival_group(
+    lattice: &Lattice,
+    (sums, near): (&[u64], &[usize]),
+    floor: u64,
+    best_index: usize,
+) -> Option<usize> {
+    // The poses at or above the floor, in the lattice's order, and each one's group.
+    let above: Vec<usize> = near.iter().copied().filter(|&i| sums[i] >= floor).collect();
+    let at = |i: usize| above.binary_search(&i).ok();
+    let mut group = vec![usize::MAX; above.len()];
     let mut stack = Vec::new();
     let mut best_of_groups: Vec<usize> = Vec::new();
-    for start in 0..sums.len() {
-        if sums[start] < floor || group[start] != usize::MAX {
+    for (place, &start) in above.iter().enumerate() {
+        if group[place] != usize::MAX {
             continue;
         }
         let id = best_of_groups.len();
         best_of_groups.push(start);
-        group[start] = id;
+        group[place] = id;
         stack.push(start);
         while let Some(i) = stack.pop() {
             if sums[i] > sums[best_of_groups[id]] {
@@ -783,8 +818,8 @@ fn rival_group(lattice: &Lattice, sums: &[u64], floor: u64, best_index: usize) -
                 for ny in (y - 1).max(-lattice.w)..=(y + 1).min(lattice.w) {
                     for nx in (x - 1).max(-lattice.w)..=(x + 1).min(lattice.w) {
                         let n = lattice.index([nx, ny, nr]);
-                        if sums[n] >= floor && group[n] == usize::MAX {
-                            group[n] = id;
+                        if let Some(p) = at(n).filter(|&p| group[p] == usize::MAX) {
+                            group[p] = id;
                             stack.push(n);
                         }
                     }
@@ -792,11 +827,11 @@ fn rival_group(lattice: &Lattice, sums: &[u64], floor: u64, best_index: usize) -
             }
         }
     }
-    let own = group[best_index];
+    let own = at(best_index).map(|p| group[p]);
     best_of_groups
         .iter()
         .enumerate()
-        .filter(|&(id, _)| id != own)
+        .filter(|&(id, _)| Some(id) != own)
         .map(|(_, &i)| i)
         .max_by_key(|&i| (sums[i], std::cmp::Reverse(i)))
 }
@@ -1103,11 +1138,15 @@ mod tests {
             let brute = brute_sums(&grid, &returns, &lattice, centre, step_rad);
             let best = *brute.iter().max().unwrap();
             let floor = (0.9 * best as f64).ceil() as u64;
-            let near: Vec<u64> = brute
+            let sums: Vec<u64> = brute
                 .iter()
                 .map(|&s| if s >= floor { s } else { 0 })
                 .collect();
-            assert!(near.iter().any(|&s| s > 0));
+            let near = NearSums {
+                near: (0..sums.len()).filter(|&i| sums[i] > 0).collect(),
+                sums,
+            };
+            assert!(!near.near.is_empty());
             let mut fresh = LatticeScores {
                 returns: returns.clone(),
                 ..LatticeScores::default()
