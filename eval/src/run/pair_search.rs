@@ -93,16 +93,19 @@ impl<'w> Searched<'w> {
     /// The poses around `reg`'s result (of `source`) that the reference's likelihood grid
     /// scores almost as well, with the default [`AmbiguityParams`]
     /// (`icp_core::global::ambiguity`), where `reg` is weakly conditioned (ratio below
-    /// [`WEAK_CONDITIONING`], or not known); `None` elsewhere. Its time is the checks'. On the
-    /// sums the pair's results before it left (the module doc): the same answer.
+    /// [`WEAK_CONDITIONING`], or not known) and [`needs_lattice`] after its `check`; `None`
+    /// elsewhere. Its time is the checks'. On the sums the pair's results before it left (the
+    /// module doc): the same answer.
     pub fn ambiguity(
         &self,
         reg: &Registration,
+        check: Option<&GlobalCheck>,
         source: &Scan,
     ) -> Option<Result<Ambiguity, AmbiguityProblem>> {
         if reg
             .conditioning
             .is_some_and(|c| c.ratio >= WEAK_CONDITIONING)
+            || !needs_lattice(reg, check)
         {
             return None;
         }
@@ -176,6 +179,19 @@ impl<'w> Searched<'w> {
     }
 }
 
+/// Whether the lattice around `reg` can say anything its `check` has not: not where the check
+/// flags it `suspect` (a pose clearly better than the result lies beyond 0.3 m or 3°), unless
+/// the registration is degenerate. A suspect registration is flagged whatever the lattice says
+/// (`PairStatus::of`: `ambiguous` comes after `suspect`), and its extended covariance spans the
+/// better pose already (`run::extended::better_pose_term`); a degenerate one is flagged
+/// `degenerate` unless the lattice pins it (then `suspect`), so its lattice is scored, and the
+/// status does not depend on this gate. On aces' default run (the paper's variants from the
+/// identity) 822 of the 1 261 results the lattice was scored around were suspect
+/// (`reports/performance.md`).
+pub(crate) fn needs_lattice(reg: &Registration, check: Option<&GlobalCheck>) -> bool {
+    !check.is_some_and(GlobalCheck::suspect) || reg.conditioning.is_some_and(|c| c.degenerate())
+}
+
 /// What a pair's global search says of one result: its check, and its ambiguity (`None`
 /// where the plan does not ask, or the search could not be made).
 pub type Answers = (
@@ -244,7 +260,9 @@ pub fn assess_alone(
     let checked = check
         .then(|| searched.check_all(&[reg], source).pop())
         .flatten();
-    let assessed = ambiguity.then(|| searched.ambiguity(reg, source)).flatten();
+    let assessed = ambiguity
+        .then(|| searched.ambiguity(reg, checked.as_ref(), source))
+        .flatten();
     (checked, assessed)
 }
 
@@ -362,6 +380,7 @@ mod tests {
         let (registered, source_surfaces, reference_surfaces) =
             pl_icp(source, reference, Isometry2::identity());
         let params = GlobalParams::default();
+        let mut suspect = [false; 2];
         for (x, deg) in [(0.0, 0.0), (0.4, 0.0), (0.0, 2.0), (2.0, 30.0)] {
             // Conditioning not known: the ambiguity is assessed, as for a weak one.
             let reg = Registration {
@@ -380,22 +399,69 @@ mod tests {
                 &mut GridPool::default(),
             )
             .unwrap();
-            let by_pair = (
-                Some(searched.check_all(&[&reg], source)[0]),
-                searched.ambiguity(&reg, source),
-            );
-            assert!(by_pair.1.is_some());
+            let check = searched.check_all(&[&reg], source)[0];
+            let by_pair = (Some(check), searched.ambiguity(&reg, Some(&check), source));
+            // Scored unless the check flags the result (and it is not degenerate).
+            assert_eq!(by_pair.1.is_some(), !check.suspect(), "{x} m, {deg}°");
+            suspect[usize::from(check.suspect())] = true;
+            let unchecked = searched.ambiguity(&reg, None, source);
+            assert!(unchecked.is_some());
             let scans = (source, reference);
             assert_eq!(assess_alone(scans, &params, (true, true), &reg), by_pair);
             assert_eq!(
                 assess_alone(scans, &params, (false, true), &reg),
-                (None, by_pair.1)
+                (None, unchecked)
             );
             assert_eq!(
                 assess_alone(scans, &params, (true, false), &reg),
                 (by_pair.0, None)
             );
         }
+        assert_eq!(suspect, [true, true], "results flagged and not");
+    }
+
+    /// The lattice is scored around every result but one the check flags `suspect`, and
+    /// around that one too where it is degenerate (the lattice may pin it).
+    #[test]
+    fn the_lattice_is_scored_unless_the_check_flagged_a_result_it_cannot_pin() {
+        use icp_core::quality::{Conditioning, DEGENERATE_RATIO};
+        let result = Isometry2::identity();
+        let check = |best_score: f64, apart_m: f64| GlobalCheck {
+            best_t_ref_src: Some(Isometry2::new(Vector2::new(apart_m, 0.0), 0.0)),
+            best_score,
+            result_t_ref_src: result,
+            result_score: 0.5,
+        };
+        let (far_better, near_better, far_alike) =
+            (check(0.7, 1.0), check(0.7, 0.2), check(0.52, 1.0));
+        assert!(far_better.suspect() && !near_better.suspect() && !far_alike.suspect());
+        let with_ratio = |ratio: Option<f64>| {
+            let conditioning = ratio.map(|ratio| Conditioning {
+                eigenvalues: [ratio, 0.5, 1.0],
+                ratio,
+            });
+            let ds = generate(&Scenario {
+                n_scans: 2,
+                ..Scenario::paper()
+            })
+            .unwrap();
+            let pair = ds.consecutive_pairs().0[0];
+            let (registered, _, _) =
+                pl_icp(&ds.scans[pair.source], &ds.scans[pair.reference], result);
+            Registration {
+                conditioning,
+                ..registered
+            }
+        };
+        for ratio in [None, Some(0.05)] {
+            let reg = with_ratio(ratio);
+            assert!(needs_lattice(&reg, None));
+            assert!(needs_lattice(&reg, Some(&near_better)));
+            assert!(needs_lattice(&reg, Some(&far_alike)));
+            assert!(!needs_lattice(&reg, Some(&far_better)), "{ratio:?}");
+        }
+        let degenerate = with_ratio(Some(DEGENERATE_RATIO / 2.0));
+        assert!(needs_lattice(&degenerate, Some(&far_better)));
     }
 
     /// A registration whose pairs leave a corridor's axis weak (conditioning below
@@ -421,7 +487,7 @@ mod tests {
                 &mut GridPool::default(),
             )
             .unwrap();
-            let ambiguity = searched.ambiguity(&registered, source).unwrap();
+            let ambiguity = searched.ambiguity(&registered, None, source).unwrap();
             let status = PairStatus::of(&Ok(registered), None, Some(&ambiguity));
             (
                 registered.t_ref_src,

@@ -428,7 +428,7 @@ impl BlockJob<'_> {
             let registrations: Vec<_> = results.iter().map(|(r, _)| r).collect();
             let checks = self.checks(&registrations, searched, pair);
             for ((&v, (result, used)), check) in pending.iter().zip(results).zip(checks) {
-                let ambiguity = self.ambiguity(&result, searched, pair);
+                let ambiguity = self.ambiguity(&result, check.as_ref(), searched, pair);
                 kept[v] = Some(PairRun {
                     status: PairStatus::of(&result, check.as_ref(), ambiguity.as_ref()),
                     result,
@@ -476,6 +476,7 @@ impl BlockJob<'_> {
     fn ambiguity(
         &self,
         result: &Result<Registration, IcpError>,
+        check: Option<&GlobalCheck>,
         searched: Option<&Searched>,
         pair: ScanPair,
     ) -> Option<Result<Ambiguity, AmbiguityProblem>> {
@@ -483,7 +484,7 @@ impl BlockJob<'_> {
         if !self.plan.ambiguity {
             return None;
         }
-        searched.ambiguity(reg, &self.ds.scans[pair.source])
+        searched.ambiguity(reg, check, &self.ds.scans[pair.source])
     }
 
     /// The external estimate of the pair at `position` in the run, assessed at its pose and
@@ -512,7 +513,7 @@ impl BlockJob<'_> {
             }),
         };
         let check = self.checks(&[&result], searched, pair).remove(0);
-        let ambiguity = self.ambiguity(&result, searched, pair);
+        let ambiguity = self.ambiguity(&result, check.as_ref(), searched, pair);
         PairRun {
             status: PairStatus::of(&result, check.as_ref(), ambiguity.as_ref()),
             result,
