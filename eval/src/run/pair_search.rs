@@ -435,23 +435,19 @@ mod tests {
         let (far_better, near_better, far_alike) =
             (check(0.7, 1.0), check(0.7, 0.2), check(0.52, 1.0));
         assert!(far_better.suspect() && !near_better.suspect() && !far_alike.suspect());
-        let with_ratio = |ratio: Option<f64>| {
-            let conditioning = ratio.map(|ratio| Conditioning {
+        let ds = generate(&Scenario {
+            n_scans: 2,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let pair = ds.consecutive_pairs().0[0];
+        let (registered, _, _) = pl_icp(&ds.scans[pair.source], &ds.scans[pair.reference], result);
+        let with_ratio = |ratio: Option<f64>| Registration {
+            conditioning: ratio.map(|ratio| Conditioning {
                 eigenvalues: [ratio, 0.5, 1.0],
                 ratio,
-            });
-            let ds = generate(&Scenario {
-                n_scans: 2,
-                ..Scenario::paper()
-            })
-            .unwrap();
-            let pair = ds.consecutive_pairs().0[0];
-            let (registered, _, _) =
-                pl_icp(&ds.scans[pair.source], &ds.scans[pair.reference], result);
-            Registration {
-                conditioning,
-                ..registered
-            }
+            }),
+            ..registered
         };
         for ratio in [None, Some(0.05)] {
             let reg = with_ratio(ratio);
