@@ -358,20 +358,26 @@ fn factor_band(sys: &SparseSystem) -> Result<Band, SequenceError> {
         let (start, pattern, values) = (node.start(), node.pattern(), node.val());
         let columns = values.ncols();
         for c in 0..columns {
-            let j = start + c;
-            for r in c..values.nrows() {
-                let i = if r < columns {
-                    start + r
-                } else {
-                    pattern[r - columns]
-                };
-                let value = values[(r, c)];
-                if i - j <= sys.width {
-                    band.set(i, j, value);
-                } else if value != 0.0 {
-                    return Err(SequenceError::Factorisation {
-                        what: "factor outside the band",
-                    });
+            // Column `start + c` of L: its rows in the supernode (contiguous), then the
+            // pattern's.
+            let column = values
+                .col(c)
+                .try_as_col_major()
+                .ok_or(SequenceError::Factorisation {
+                    what: "factor layout",
+                })?;
+            let column = column.as_slice();
+            let rows = (start..start + columns).chain(pattern.iter().copied());
+            let band_column = band.column_mut(start + c);
+            for (i, &value) in rows.zip(column).skip(c) {
+                match band_column.get_mut(i - (start + c)) {
+                    Some(entry) => *entry = value,
+                    None if value != 0.0 => {
+                        return Err(SequenceError::Factorisation {
+                            what: "factor outside the band",
+                        })
+                    }
+                    None => {}
                 }
             }
         }
