@@ -253,29 +253,22 @@ impl Sink for Discard {
     fn add_g(&mut self, _: usize, _: &Vector3<f64>) {}
 }
 
-/// Adds one factor (residual `r`, information `info`) into `sink`: `groups` pairs each
-/// Jacobian with the blocks it is taken against (a registration's against a scan's pose and
-/// its error alike), so that each product `Jᵢᵀ W Jⱼ` is formed once for all the blocks that
-/// share it.
-pub(crate) fn accumulate<const R: usize, const G: usize, S: Sink>(
+/// Adds one factor (residual `r`, information `info`, Jacobian blocks against `blocks`).
+pub(crate) fn accumulate<const R: usize, S: Sink>(
     sink: &mut S,
-    groups: &[(&[Option<usize>], SMatrix<f64, R, 3>); G],
+    blocks: &[(Option<usize>, SMatrix<f64, R, 3>)],
     r: &SVector<f64, R>,
     info: &SMatrix<f64, R, R>,
 ) {
     let wr = info * r;
-    for (blocks_i, ji) in groups {
+    for (bi, ji) in blocks {
+        let Some(bi) = *bi else { continue };
         let jtw = ji.transpose() * info;
-        let g = ji.transpose() * wr;
-        let mut products: [Option<Matrix3<f64>>; G] = [None; G];
-        for &bi in blocks_i.iter().flatten() {
-            sink.add_g(bi, &g);
-            for ((blocks_j, jj), product) in groups.iter().zip(&mut products) {
-                for &bj in blocks_j.iter().flatten() {
-                    if bi <= bj {
-                        sink.add_h(bi, bj, product.get_or_insert_with(|| jtw * jj));
-                    }
-                }
+        sink.add_g(bi, &(ji.transpose() * wr));
+        for (bj, jj) in blocks {
+            let Some(bj) = *bj else { continue };
+            if bi <= bj {
+                sink.add_h(bi, bj, &(jtw * jj));
             }
         }
     }
@@ -289,7 +282,7 @@ fn add_gaussian<S: Sink>(
     r: &Vector3<f64>,
     info: &Matrix3<f64>,
 ) -> f64 {
-    accumulate(sink, &[(&[block], Matrix3::identity())], r, info);
+    accumulate(sink, &[(block, Matrix3::identity())], r, info);
     0.5 * r.dot(&(info * r))
 }
 
@@ -341,10 +334,10 @@ impl Model<'_> {
         );
         let info = self.prior_info(k);
         let blocks = [
-            (&[layout.pose(k)][..], lin.jacobians[0]),
-            (&[layout.twist(k)], lin.jacobians[1]),
-            (&[layout.pose(k + 1)], lin.jacobians[2]),
-            (&[layout.twist(k + 1)], lin.jacobians[3]),
+            (layout.pose(k), lin.jacobians[0]),
+            (layout.twist(k), lin.jacobians[1]),
+            (layout.pose(k + 1), lin.jacobians[2]),
+            (layout.twist(k + 1), lin.jacobians[3]),
         ];
         accumulate(sink, &blocks, &lin.residual, &info);
         0.5 * lin.residual.dot(&(info * lin.residual))
@@ -392,14 +385,10 @@ impl Model<'_> {
         let d = r.dot(&(reg.info * r)).max(0.0).sqrt();
         let w = factors::huber_weight(d, self.huber_k);
         let blocks = [
-            (
-                &[layout.pose(reg.source), layout.error(reg.source)][..],
-                j_src,
-            ),
-            (
-                &[layout.pose(reg.reference), layout.error(reg.reference)],
-                j_ref,
-            ),
+            (layout.pose(reg.source), j_src),
+            (layout.error(reg.source), j_src),
+            (layout.pose(reg.reference), j_ref),
+            (layout.error(reg.reference), j_ref),
         ];
         accumulate(sink, &blocks, &r, &(reg.info * w));
         if d <= self.huber_k {
