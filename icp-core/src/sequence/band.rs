@@ -8,102 +8,101 @@
 
 use super::SequenceError;
 
-/// A symmetric matrix's lower band: `at(i, j)` for `0 ≤ i − j ≤ b`.
-pub(crate) struct Band {
+/// The columns of a lower Cholesky factor L (`H = L Lᵀ`) whose entries lie within H's band.
+pub(crate) trait FactorColumns {
+    /// Writes `L(j..j + out.len(), j)` into `out`, which holds zeros (left where L has no
+    /// entry). An entry of the column past `out` that is not zero is an error: the factor
+    /// is not within the band.
+    fn column(&mut self, j: usize, out: &mut [f64]) -> Result<(), SequenceError>;
+}
+
+/// What the recursion knows of `Σ = H⁻¹` once column j is done: `Σ(i₁, i₂)` for `i₁` and
+/// `i₂` in `j..=j + b`.
+pub(crate) struct Window<'a> {
+    ring: &'a [f64],
+    stride: usize,
+    w: usize,
+    first: usize,
+}
+
+impl Window<'_> {
+    /// `Σ(i₁, i₂)`, or none where either index lies outside the window.
+    pub fn at(&self, i1: usize, i2: usize) -> Option<f64> {
+        let inside = |i: usize| i >= self.first && i - self.first < self.w;
+        (inside(i1) && inside(i2)).then(|| self.ring[(i2 % self.w) * self.stride + i1 % self.w])
+    }
+}
+
+/// Takahashi's recursion over the `n` columns of a factor within bandwidth `b`, from the
+/// last: `visit(j, window)` once column j of `Σ = H⁻¹` is known (the window then holds
+/// `Σ(j..=j + b, j..=j + b)`); returns `ln det H` (`2 Σ ln L_jj`). A diagonal entry of L that
+/// is not positive and finite is an error.
+///
+/// Column j of Σ below the diagonal is `Σ(j+1.., j) = −W l / L_jj` with `l = L(j+1.., j)` and
+/// W the window after j, already known. The window is kept whole (both triangles) in a ring
+/// of `b + 1` columns, index `i` in slot `i mod (b + 1)`, and column j takes the slot that
+/// index `j + b + 1` leaves: `W l` is then a sum of whole, contiguous columns (see
+/// [`Recursion`]). Reading the lower band alone, a product and a dot per column of W of
+/// decreasing lengths, took a quarter of the estimation of `Qc` on the harbour's size
+/// (bandwidth 32); reports/performance.md (issue 35) has the figures. The window is all the
+/// callers read (each scan's blocks and its next scan's lie within it when the scan's first
+/// column is done), so no band of Σ is written out.
+pub(crate) fn inverse_in_band(
     n: usize,
     b: usize,
-    /// Column-major: `vals[j * (b + 1) + (i − j)]`.
-    vals: Vec<f64>,
+    factor: &mut impl FactorColumns,
+    mut visit: impl FnMut(usize, &Window<'_>),
+) -> Result<f64, SequenceError> {
+    pulp::Arch::new().dispatch(Recursion {
+        n,
+        b,
+        factor,
+        visit: &mut visit,
+    })
 }
 
-impl Band {
-    pub fn zeros(n: usize, b: usize) -> Self {
-        Self {
-            n,
-            b,
-            vals: vec![0.0; n * (b + 1)],
-        }
-    }
-
-    /// Entry `(i, j)` of the symmetric matrix (0 outside the band).
-    pub fn at(&self, i: usize, j: usize) -> f64 {
-        let (i, j) = if i >= j { (i, j) } else { (j, i) };
-        if i - j > self.b {
-            0.0
-        } else {
-            self.vals[j * (self.b + 1) + (i - j)]
-        }
-    }
-
-    /// Column j's entries `(j..=j + b, j)`, as many as lie in the matrix.
-    pub fn column_mut(&mut self, j: usize) -> &mut [f64] {
-        let w = self.b + 1;
-        let len = w.min(self.n - j);
-        &mut self.vals[j * w..j * w + len]
-    }
-
-    /// Taking this band as the lower Cholesky factor L of a positive-definite matrix
-    /// `H = L Lᵀ` (the factor lies within H's band where H's rows and columns keep their
-    /// order: no fill outside it), the band of `H⁻¹` and `ln det H` (`2 Σ ln L_jj`).
-    ///
-    /// Column j of `Σ = H⁻¹` below the diagonal is `Σ(j+1.., j) = −W l / L_jj` with
-    /// `l = L(j+1.., j)` and W the window `Σ(j+1..j+b, j+1..j+b)`, already known. The window
-    /// is kept whole (both triangles) in a ring of `b + 1` columns, index `i` in slot
-    /// `i mod (b + 1)`, and column j takes the slot that index `j + b + 1` leaves: `W l` is
-    /// then a sum of whole, contiguous columns (see [`Recursion`]). Reading the lower band
-    /// alone, a product and a dot per column of W of decreasing lengths, took a quarter of
-    /// the estimation of `Qc` on the harbour's size (bandwidth 32); reports/performance.md
-    /// (issue 35) has the figures.
-    pub fn inverse_of_factor(&self) -> Result<(Band, f64), SequenceError> {
-        let (n, b) = (self.n, self.b);
-        let w = b + 1;
-        let l = &self.vals;
-        if (0..n).any(|j| !(l[j * w] > 0.0 && l[j * w].is_finite())) {
-            return Err(SequenceError::Factorisation {
-                what: "band marginals",
-            });
-        }
-        let log_det = 2.0 * (0..n).map(|j| l[j * w].ln()).sum::<f64>();
-        let mut s = vec![0.0; n * w];
-        pulp::Arch::new().dispatch(Recursion {
-            factor: self,
-            sigma: &mut s,
-        });
-        Ok((Band { n, b, vals: s }, log_det))
-    }
+/// Takahashi's recursion ([`inverse_in_band`]). Run through pulp's dispatch (faer's own, as
+/// its factorisation is), so that `W l` is compiled for the machine's widest vectors and fused
+/// multiply–adds, a tile of rows at a time summed in registers ([`tile`]); the slot of the
+/// index that left the window is multiplied by no entry of `l`, and its row of `W l` is
+/// computed and not read.
+struct Recursion<'a, F, V> {
+    n: usize,
+    b: usize,
+    factor: &'a mut F,
+    visit: &'a mut V,
 }
 
-/// Takahashi's recursion over the factor's columns from the last (see
-/// [`Band::inverse_of_factor`]), writing the band of `Σ` into `sigma` (laid out as the
-/// factor's). Run through pulp's dispatch (faer's own, as its factorisation is), so that
-/// `W l` is compiled for the machine's widest vectors and fused multiply–adds, a tile of rows
-/// at a time summed in registers ([`tile`]); the slot of the index that left the window is
-/// multiplied by no entry of `l`, and its row of `W l` is computed and not read.
-struct Recursion<'a> {
-    factor: &'a Band,
-    sigma: &'a mut [f64],
-}
-
-impl pulp::WithSimd for Recursion<'_> {
-    type Output = ();
+impl<F: FactorColumns, V: FnMut(usize, &Window<'_>)> pulp::WithSimd for Recursion<'_, F, V> {
+    type Output = Result<f64, SequenceError>;
 
     #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, simd: S) {
-        let (n, b) = (self.factor.n, self.factor.b);
+    fn with_simd<S: pulp::Simd>(self, simd: S) -> Self::Output {
+        let (n, b) = (self.n, self.b);
         let w = b + 1;
-        let l = &self.factor.vals;
-        let s = self.sigma;
         // The window, column-major by slot, each column padded to a whole number of the
         // widest vectors; slots no index has reached yet hold zeros.
         let stride = w.div_ceil(PAD) * PAD;
         let mut ring = vec![0.0; w * stride];
         let mut v = vec![0.0; stride];
+        // Column j of L and of Σ, from the diagonal down.
+        let (mut l, mut out) = (vec![0.0; w], vec![0.0; w]);
+        let mut diagonal = vec![0.0; n];
         // The slot of index j + 1 + k, k = 0..b (the window after j).
         let mut slots = vec![0usize; b];
         for j in (0..n).rev() {
-            let ljj = l[j * w];
             let len = w.min(n - j);
-            let lcol = &l[j * w + 1..j * w + len];
+            let l = &mut l[..len];
+            l.fill(0.0);
+            self.factor.column(j, l)?;
+            let ljj = l[0];
+            if !(ljj > 0.0 && ljj.is_finite()) {
+                return Err(SequenceError::Factorisation {
+                    what: "band marginals",
+                });
+            }
+            diagonal[j] = ljj;
+            let lcol = &l[1..];
             let own = j % w;
             let slots = &mut slots[..len - 1];
             let mut next = own;
@@ -127,7 +126,7 @@ impl pulp::WithSimd for Recursion<'_> {
                     _ => tile::<S, 1>(simd, columns, start, acc),
                 };
             }
-            let out = &mut s[j * w..j * w + len];
+            let out = &mut out[..len];
             let mut dot = 0.0;
             for ((&slot, lk), below) in slots.iter().zip(lcol).zip(&mut out[1..]) {
                 *below = -v[slot] / ljj;
@@ -140,7 +139,15 @@ impl pulp::WithSimd for Recursion<'_> {
                 ring[own * stride + slot] = *sij;
                 ring[slot * stride + own] = *sij;
             }
+            let window = Window {
+                ring: &ring,
+                stride,
+                w,
+                first: j,
+            };
+            (self.visit)(j, &window);
         }
+        Ok(2.0 * diagonal.iter().map(|d| d.ln()).sum::<f64>())
     }
 }
 
@@ -174,6 +181,39 @@ mod tests {
     use super::*;
     use nalgebra::DMatrix;
 
+    /// A dense lower factor's columns.
+    struct Dense(DMatrix<f64>);
+
+    impl FactorColumns for Dense {
+        fn column(&mut self, j: usize, out: &mut [f64]) -> Result<(), SequenceError> {
+            for (d, o) in out.iter_mut().enumerate() {
+                *o = self.0[(j + d, j)];
+            }
+            match (j + out.len()..self.0.nrows()).all(|i| self.0[(i, j)] == 0.0) {
+                true => Ok(()),
+                false => Err(SequenceError::Factorisation {
+                    what: "factor outside the band",
+                }),
+            }
+        }
+    }
+
+    /// The band of Σ and `ln det H` as [`inverse_in_band`] gives them.
+    fn band_of_inverse(l: DMatrix<f64>, b: usize) -> Result<(DMatrix<f64>, f64), SequenceError> {
+        let n = l.nrows();
+        let mut band = DMatrix::from_element(n, n, f64::NAN);
+        let log_det = inverse_in_band(n, b, &mut Dense(l), |j, window| {
+            for i in j..(j + b + 1).min(n) {
+                band[(i, j)] = window.at(i, j).unwrap();
+            }
+            assert_eq!(window.at(j + b + 1, j), None);
+            if j > 0 {
+                assert_eq!(window.at(j, j - 1), None);
+            }
+        })?;
+        Ok((band, log_det))
+    }
+
     #[test]
     fn the_band_of_the_inverse_and_the_log_determinant_match_dense_ones() {
         // Narrow and wide bands (window columns of 2 to 12 vectors of four: every tile size
@@ -194,24 +234,20 @@ mod tests {
             }
             // The factor by nalgebra's dense Cholesky: within the band, as the doc says.
             let l = dense.clone().cholesky().unwrap().l();
-            let mut factor = Band::zeros(n, b);
             for j in 0..n {
-                for i in j..n {
-                    if i - j <= b {
-                        factor.column_mut(j)[i - j] = l[(i, j)];
-                    } else {
-                        assert!(l[(i, j)].abs() < 1e-15, "fill outside the band");
-                    }
+                for i in j + b + 1..n {
+                    assert!(l[(i, j)].abs() < 1e-15, "fill outside the band");
                 }
             }
-            let (s, log_det) = factor.inverse_of_factor().unwrap();
+            let l = l.map(|x| if x.abs() < 1e-15 { 0.0 } else { x });
+            let (s, log_det) = band_of_inverse(l, b).unwrap();
             let dense_log_det = dense.clone().cholesky().unwrap().determinant().ln();
             assert!((log_det - dense_log_det).abs() < 1e-10 * dense_log_det.abs());
             let inv = dense.try_inverse().unwrap();
             for j in 0..n {
                 for i in j..(j + b + 1).min(n) {
                     assert!(
-                        (s.at(i, j) - inv[(i, j)]).abs() < 1e-12,
+                        (s[(i, j)] - inv[(i, j)]).abs() < 1e-12,
                         "{n} {b}: ({i}, {j})"
                     );
                 }
@@ -220,14 +256,17 @@ mod tests {
     }
 
     #[test]
-    fn a_factor_without_a_positive_diagonal_is_an_error() {
-        let mut factor = Band::zeros(3, 1);
-        factor.column_mut(0)[0] = 1.0;
-        factor.column_mut(2)[0] = 1.0;
-        assert!(factor.inverse_of_factor().is_err());
-        factor.column_mut(1)[0] = f64::NAN;
-        assert!(factor.inverse_of_factor().is_err());
-        factor.column_mut(1)[0] = 2.0;
-        assert!(factor.inverse_of_factor().is_ok());
+    fn a_factor_without_a_positive_diagonal_or_outside_the_band_is_an_error() {
+        let mut l = DMatrix::zeros(3, 3);
+        l[(0, 0)] = 1.0;
+        l[(2, 2)] = 1.0;
+        assert!(band_of_inverse(l.clone(), 1).is_err());
+        l[(1, 1)] = f64::NAN;
+        assert!(band_of_inverse(l.clone(), 1).is_err());
+        l[(1, 1)] = 2.0;
+        assert!(band_of_inverse(l.clone(), 1).is_ok());
+        l[(2, 0)] = 0.5;
+        assert!(band_of_inverse(l.clone(), 1).is_err());
+        assert!(band_of_inverse(l, 2).is_ok());
     }
 }

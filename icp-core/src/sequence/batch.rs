@@ -6,17 +6,17 @@
 use std::collections::BTreeSet;
 
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
+use faer::sparse::linalg::cholesky::supernodal::{SupernodalLltRef, SymbolicSupernodalCholesky};
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, Triplet};
-use faer::{Conj, Mat, Par, Side};
+use faer::{Conj, Mat, MatRef, Par, Side};
 use nalgebra::{Matrix3, Vector3};
 
-use super::band::Band;
+use super::band::{inverse_in_band, FactorColumns};
 use super::factors::Matrix6;
 use super::system::{descend, stopped, Discard, Estimates, Layout, Model, Sink};
 use super::{SequenceError, SolveStop};
@@ -304,83 +304,141 @@ pub(crate) struct Marginals {
 
 /// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero; its error,
 /// where the model has them, is marginalised out like every scan's), the
-/// cross-covariance `Σ_k,k+1` of consecutive scans, and `ln det H`: from the band of `H⁻¹`
-/// (see [`Band`]), by the Cholesky factor of the system as [`solve`] left it.
+/// cross-covariance `Σ_k,k+1` of consecutive scans, and `ln det H`: from the entries of `H⁻¹`
+/// within H's band ([`inverse_in_band`]), by the Cholesky factor of the system as [`solve`]
+/// left it. Scan k's blocks and the next scan's are read from the recursion's window when
+/// the first column of scan k's pose and twist is done; one that lies outside it (a layout
+/// whose band is narrower than two scans) is an error, not a zero.
 pub(crate) fn marginals(
     sys: &SparseSystem,
     layout: &Layout,
     n_states: usize,
 ) -> Result<Marginals, SequenceError> {
-    let (sigma, log_det_h) = factor_band(sys)?.inverse_of_factor()?;
-    let block = |a: usize, b: usize| -> Matrix6 {
-        let mut out = Matrix6::zeros();
-        for (sa, ba) in layout.state_blocks(a).into_iter().take(2).enumerate() {
-            let Some(ba) = ba else { continue };
-            for (sb, bb) in layout.state_blocks(b).into_iter().take(2).enumerate() {
-                let Some(bb) = bb else { continue };
-                for r in 0..3 {
-                    for c in 0..3 {
-                        out[(3 * sa + r, 3 * sb + c)] = sigma.at(3 * ba + r, 3 * bb + c);
+    let scalars = |k: usize| {
+        let blocks = layout.state_blocks(k);
+        std::array::from_fn::<_, 2, _>(|s| blocks[s].map(|block| 3 * block))
+    };
+    // Scan k by the first column of its pose and twist.
+    let mut scan_at = vec![None; sys.g.len()];
+    for k in 0..n_states {
+        if let Some(first) = scalars(k).into_iter().flatten().min() {
+            scan_at[first] = Some(k);
+        }
+    }
+    let mut own = vec![Matrix6::zeros(); n_states];
+    let mut cross = vec![Matrix6::zeros(); n_states.saturating_sub(1)];
+    let mut outside = false;
+    let log_det_h = inverse_in_band(
+        sys.g.len(),
+        sys.width,
+        &mut SupernodeColumns::new(sys)?,
+        |j, window| {
+            let Some(k) = scan_at[j] else { return };
+            let mut block = |a: usize, b: usize, out: &mut Matrix6| {
+                for (sa, ia) in scalars(a).into_iter().enumerate() {
+                    let Some(ia) = ia else { continue };
+                    for (sb, ib) in scalars(b).into_iter().enumerate() {
+                        let Some(ib) = ib else { continue };
+                        for r in 0..3 {
+                            for c in 0..3 {
+                                match window.at(ia + r, ib + c) {
+                                    Some(v) => out[(3 * sa + r, 3 * sb + c)] = v,
+                                    None => outside = true,
+                                }
+                            }
+                        }
                     }
                 }
+            };
+            block(k, k, &mut own[k]);
+            if let Some(next) = cross.get_mut(k) {
+                block(k, k + 1, next);
             }
-        }
-        out
-    };
+        },
+    )?;
+    if outside {
+        return Err(SequenceError::Factorisation {
+            what: "marginal outside the band",
+        });
+    }
     Ok(Marginals {
-        own: (0..n_states).map(|k| block(k, k)).collect(),
-        cross: (0..n_states.saturating_sub(1))
-            .map(|k| block(k, k + 1))
-            .collect(),
+        own,
+        cross,
         log_det_h,
     })
 }
 
-/// The numeric Cholesky factor of `sys` (its last [`SparseSystem::factorise`]) as a band: the
-/// supernodes' dense blocks copied entry by entry. A relaxed supernode's columns share one
-/// pattern, so a column may hold rows past the band; those entries are exact zeros (no
-/// elimination reaches them in the scans' order) and are left out, and one that is not is an
-/// error rather than a marginal silently wrong.
-fn factor_band(sys: &SparseSystem) -> Result<Band, SequenceError> {
-    let layout_error = SequenceError::Factorisation {
-        what: "factor layout",
-    };
-    let SymbolicCholeskyRaw::Supernodal(symbolic) = sys.symbolic.raw() else {
-        return Err(layout_error);
-    };
-    if sys.symbolic.perm().is_some() {
-        return Err(layout_error);
+/// The columns of the numeric Cholesky factor of `sys` (its last
+/// [`SparseSystem::factorise`]), read from faer's supernodes. A relaxed supernode's columns
+/// share one pattern, so a column may hold rows past the band; those entries are exact zeros
+/// (no elimination reaches them in the scans' order) and are left out, and one that is not is
+/// an error rather than a marginal silently wrong.
+struct SupernodeColumns<'a> {
+    symbolic: &'a SymbolicSupernodalCholesky<usize>,
+    factor: SupernodalLltRef<'a, usize, f64>,
+    /// The supernode the last column asked lay in: its first column, the rows of its pattern
+    /// and its values (the recursion asks for the columns in turn, so it seldom changes).
+    node: Option<(usize, &'a [usize], MatRef<'a, f64>)>,
+}
+
+impl<'a> SupernodeColumns<'a> {
+    fn new(sys: &'a SparseSystem) -> Result<Self, SequenceError> {
+        let layout_error = SequenceError::Factorisation {
+            what: "factor layout",
+        };
+        let SymbolicCholeskyRaw::Supernodal(symbolic) = sys.symbolic.raw() else {
+            return Err(layout_error);
+        };
+        if sys.symbolic.perm().is_some() {
+            return Err(layout_error);
+        }
+        Ok(Self {
+            symbolic,
+            factor: SupernodalLltRef::new(symbolic, &sys.factor),
+            node: None,
+        })
     }
-    let factor = SupernodalLltRef::new(symbolic, &sys.factor);
-    let mut band = Band::zeros(sys.g.len(), sys.width);
-    for s in 0..symbolic.n_supernodes() {
-        let node = factor.supernode(s);
-        let (start, pattern, values) = (node.start(), node.pattern(), node.val());
+}
+
+impl FactorColumns for SupernodeColumns<'_> {
+    fn column(&mut self, j: usize, out: &mut [f64]) -> Result<(), SequenceError> {
+        let (start, pattern, values) = match self.node {
+            Some((start, pattern, values)) if (start..start + values.ncols()).contains(&j) => {
+                (start, pattern, values)
+            }
+            _ => {
+                let s = self
+                    .symbolic
+                    .supernode_begin()
+                    .partition_point(|&begin| begin <= j)
+                    - 1;
+                let node = self.factor.supernode(s);
+                let found = (node.start(), node.pattern(), node.val());
+                self.node = Some(found);
+                found
+            }
+        };
         let columns = values.ncols();
-        for c in 0..columns {
-            // Column `start + c` of L: its rows in the supernode (contiguous), then the
-            // pattern's.
-            let column = values
-                .col(c)
+        // Column j of L: its rows in the supernode (contiguous), then the pattern's.
+        let column =
+            values
+                .col(j - start)
                 .try_as_col_major()
                 .ok_or(SequenceError::Factorisation {
                     what: "factor layout",
                 })?;
-            let column = column.as_slice();
-            let rows = (start..start + columns).chain(pattern.iter().copied());
-            let band_column = band.column_mut(start + c);
-            for (i, &value) in rows.zip(column).skip(c) {
-                match band_column.get_mut(i - (start + c)) {
-                    Some(entry) => *entry = value,
-                    None if value != 0.0 => {
-                        return Err(SequenceError::Factorisation {
-                            what: "factor outside the band",
-                        })
-                    }
-                    None => {}
+        let rows = (start..start + columns).chain(pattern.iter().copied());
+        for (i, &value) in rows.zip(column.as_slice()).skip(j - start) {
+            match out.get_mut(i - j) {
+                Some(entry) => *entry = value,
+                None if value != 0.0 => {
+                    return Err(SequenceError::Factorisation {
+                        what: "factor outside the band",
+                    })
                 }
+                None => {}
             }
         }
+        Ok(())
     }
-    Ok(band)
 }
