@@ -187,6 +187,12 @@ impl SparseSystem {
     /// [`marginals`]).
     pub fn step(&mut self) -> Result<Vec<f64>, SequenceError> {
         self.factorise()?;
+        Ok(self.chord())
+    }
+
+    /// `−H₀⁻¹g`: g as it is now, H₀ the system of the last factorisation (a simplified
+    /// Newton, or chord, step where the system was linearised again since).
+    fn chord(&mut self) -> Vec<f64> {
         let mut rhs = Mat::from_fn(self.g.len(), 1, |i, _| -self.g[i]);
         LltRef::new(&self.symbolic, &self.factor).solve_in_place_with_conj(
             Conj::No,
@@ -194,7 +200,7 @@ impl SparseSystem {
             Par::Seq,
             MemStack::new(&mut self.work),
         );
-        Ok((0..self.g.len()).map(|i| rhs[(i, 0)]).collect())
+        (0..self.g.len()).map(|i| rhs[(i, 0)]).collect()
     }
 }
 
@@ -253,6 +259,12 @@ fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &
 /// there differ by as little (the same `Qc` to 3 digits and the same EM rounds on the
 /// harbours, marina and aces; reports/performance.md, issue 35). Not taking that last step
 /// instead moved the paper harbour's sway `q`, an axis heading for 0, by a factor of 7.
+///
+/// After a full step (not shortened by [`descend`]) the next one is first tried as a chord
+/// step ([`chord_step`]), on the factor already made: where it is below the tolerance it is
+/// the last, and one factorisation is spared. An EM round's solve, which starts at the
+/// solution of the round before, converged so in two steps and now factorises once
+/// (reports/performance.md, issue 35).
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -262,14 +274,11 @@ pub(crate) fn solve(
     tolerance: f64,
 ) -> Result<(f64, SolveStop), SequenceError> {
     let mut trial = est.clone();
+    let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
     let mut cost = linearise(model, est, layout, sys);
     for _ in 0..max_iterations {
         let delta = sys.step()?;
-        if delta.iter().any(|d| !d.is_finite()) {
-            return Err(SequenceError::Factorisation { what: "step" });
-        }
-        let decrement = -sys.g.iter().zip(&delta).map(|(g, d)| g * d).sum::<f64>();
-        let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
+        let decrement = decrement(&sys.g, &delta)?;
         let taken = descend(
             model.geometry,
             layout,
@@ -287,9 +296,36 @@ pub(crate) fn solve(
             Some(how) => return Ok((taken.map_or(cost, |t| t.cost), how)),
             None => cost = linearise(model, est, layout, sys),
         }
+        if taken.is_some_and(|t| t.scale == 1.0) {
+            let chord = chord_step(sys, tolerance)?;
+            if let Some(t) = chord.and_then(|c| {
+                descend(model.geometry, layout, est, &mut trial, &c, cost, cost_at)
+            }) {
+                return Ok((t.cost, SolveStop::Converged));
+            }
+        }
     }
     sys.factorise()?;
     Ok((cost, SolveStop::IterationCap))
+}
+
+/// The chord step `−H₀⁻¹g` of `sys` linearised at the states a full Gauss–Newton step
+/// reached (H₀ the system that step was computed with), where its decrement `−gᵀδ` is at
+/// most `tolerance`: then the states are within the tolerance of the minimum as a Newton
+/// step would say (H₀ differs from the system there by one step's change of the
+/// linearisation, the robust weights' included), and H₀'s factor stands for the system at
+/// the result as the last Newton step's does in [`solve`].
+fn chord_step(sys: &mut SparseSystem, tolerance: f64) -> Result<Option<Vec<f64>>, SequenceError> {
+    let delta = sys.chord();
+    Ok((decrement(&sys.g, &delta)? <= tolerance).then_some(delta))
+}
+
+/// A step's Newton decrement `−gᵀδ`; an error where the step is not finite.
+fn decrement(g: &[f64], delta: &[f64]) -> Result<f64, SequenceError> {
+    if delta.iter().any(|d| !d.is_finite()) {
+        return Err(SequenceError::Factorisation { what: "step" });
+    }
+    Ok(-g.iter().zip(delta).map(|(g, d)| g * d).sum::<f64>())
 }
 
 /// The marginals of a solution (see [`marginals`]).
