@@ -264,7 +264,11 @@ fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &
 /// step ([`chord_step`]), on the factor already made: where it is below the tolerance it is
 /// the last, and one factorisation is spared. An EM round's solve, which starts at the
 /// solution of the round before, converged so in two steps and now factorises once
-/// (reports/performance.md, issue 35).
+/// (reports/performance.md, issue 35). The chord is tried on a solve's first step, and later
+/// only where the decrements' last contraction (this step's over the one before) would bring
+/// the next one within the tolerance: where they contract linearly (the Huber weights still
+/// changing: the first solve from the chained start, and most of aces' solves, where 3 of 541
+/// chords after full steps passed) a chord would not pass, and costs a triangular solve.
 pub(crate) fn solve(
     model: &Model<'_>,
     est: &mut Estimates,
@@ -276,9 +280,12 @@ pub(crate) fn solve(
     let mut trial = est.clone();
     let cost_at = |e: &Estimates| add_all(model, e, layout, &mut Discard);
     let mut cost = linearise(model, est, layout, sys);
+    let mut previous: Option<f64> = None;
     for _ in 0..max_iterations {
         let delta = sys.step()?;
         let decrement = decrement(&sys.g, &delta)?;
+        let next = previous.map_or(0.0, |p| decrement * (decrement / p));
+        previous = Some(decrement);
         let taken = descend(
             model.geometry,
             layout,
@@ -296,11 +303,11 @@ pub(crate) fn solve(
             Some(how) => return Ok((taken.map_or(cost, |t| t.cost), how)),
             None => cost = linearise(model, est, layout, sys),
         }
-        if taken.is_some_and(|t| t.scale == 1.0) {
+        if taken.is_some_and(|t| t.scale == 1.0) && next <= tolerance {
             let chord = chord_step(sys, tolerance)?;
-            if let Some(t) = chord.and_then(|c| {
-                descend(model.geometry, layout, est, &mut trial, &c, cost, cost_at)
-            }) {
+            if let Some(t) = chord
+                .and_then(|c| descend(model.geometry, layout, est, &mut trial, &c, cost, cost_at))
+            {
                 return Ok((t.cost, SolveStop::Converged));
             }
         }
