@@ -281,41 +281,43 @@ pub fn smooth(
         twist0: twist0(options)?,
         scan_errors: errors.as_deref(),
     };
-    let noise::Estimated {
-        qc,
-        rounds: em_iterations,
-        est: start,
-        sys,
-    } = match options.process_noise {
-        ProcessNoise::Fixed(qc) => noise::Estimated {
-            qc,
-            rounds: 0,
-            est: init.clone(),
-            sys: None,
-        },
+    let (em_iterations, last) = match options.process_noise {
+        ProcessNoise::Fixed(qc) => {
+            model.qc = qc;
+            (0, None)
+        }
         ProcessNoise::Estimate {
             max_iterations,
             tolerance,
             likelihood_tolerance,
-        } => noise::estimate(
-            options,
-            &model,
-            init.clone(),
-            noise::starts(options.geometry, times_s, &regs),
-            &noise::EmStop {
-                max_rounds: max_iterations,
-                tolerance,
-                likelihood_tolerance,
-            },
-        )?,
+        } => {
+            let estimated = noise::estimate(
+                options,
+                &model,
+                init.clone(),
+                noise::starts(options.geometry, times_s, &regs),
+                &noise::EmStop {
+                    max_rounds: max_iterations,
+                    tolerance,
+                    likelihood_tolerance,
+                },
+            )?;
+            // EM's last round: its `Qc`, and the batch solution there.
+            model.qc = estimated.last.qc;
+            (estimated.rounds, Some(estimated.last))
+        }
     };
-    model.qc = qc;
+    let qc = model.qc;
     let ((scans, steps), stop) = match mode {
-        // The batch solve starts where the estimation of `Qc` left it; the causal one from
-        // the chained start, which uses no scan after the one it estimates.
+        // The batch solution is EM's last round's, or solved at a `Qc` given; the causal one
+        // starts from the chained start, which uses no scan after the one it estimates.
         Mode::Batch => {
-            let (est, m, stop) = noise::batch_with_marginals(&model, start, sys, options)?;
-            (outputs(&model, &est, &m.own, &m.cross), stop)
+            let solved = match last {
+                Some(last) => last,
+                None => noise::batch_with_marginals(&model, init, options)?,
+            };
+            let m = &solved.marginals;
+            (outputs(&model, &solved.est, &m.own, &m.cross), solved.stop)
         }
         Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,
     };

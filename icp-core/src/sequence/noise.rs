@@ -13,22 +13,30 @@ use super::{Geometry, SequenceError, SmootherOptions, SolveStop};
 const Q_FLOOR: f64 = 1e-12;
 
 /// The batch solve at `model`'s `Qc` from `init`, with every scan's marginal covariance and
-/// the cross-covariance of consecutive scans, and how the solve stopped; on `sys` where the
-/// estimation of `Qc` laid one out (the same pattern: `Qc` does not change it), else on a new
-/// one.
+/// the cross-covariance of consecutive scans, and how the solve stopped.
 pub(crate) fn batch_with_marginals(
     model: &Model<'_>,
     est: Estimates,
-    sys: Option<SparseSystem>,
     options: &SmootherOptions,
-) -> Result<(Estimates, Marginals, SolveStop), SequenceError> {
+) -> Result<Solved, SequenceError> {
     let layout = model.layout(0, est.poses.len());
-    let mut sys = match sys {
-        Some(sys) => sys,
-        None => SparseSystem::new(model, &layout, est.poses.len())?,
-    };
+    let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
     let (est, marginals, (_, stop)) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
-    Ok((est, marginals, stop))
+    Ok(Solved {
+        qc: model.qc,
+        est,
+        marginals,
+        stop,
+    })
+}
+
+/// The batch solution at one `Qc`: the estimates, their marginals ([`batch::marginals`]) and
+/// how the solve stopped.
+pub(crate) struct Solved {
+    pub qc: [f64; 3],
+    pub est: Estimates,
+    pub marginals: Marginals,
+    pub stop: SolveStop,
 }
 
 /// [`batch_with_marginals`] on the system `sys` already laid out (its symbolic factorisation
@@ -111,8 +119,9 @@ pub(crate) fn starts(
 /// Expectation–maximisation of `Qc` from the first of the starts, then from the second where
 /// there is one and the first proved low (from the estimates `est` each time: [`starts`]),
 /// keeping the one whose last round has the higher log-likelihood ([`log_evidence`]; the
-/// first of equals): `Qc`, the EM rounds taken over all starts and its
-/// last round's solution. From one start ([`from_start`]), accelerated by SQUAREM (Varadhan & Roland
+/// first of equals): the EM rounds taken over all starts and the kept start's last round
+/// (its `Qc` and the smoother's solution there with its marginals, the E-step of that round).
+/// From one start ([`from_start`]), accelerated by SQUAREM (Varadhan & Roland
 /// 2008) on `ln Qc`, axis by axis: two EM rounds give each axis' step `r` and its change `v`,
 /// the extrapolation `ln q₀ − 2αr + α²v` (`α = −|r|/|v|`, at most −1: no slower than plain EM)
 /// is followed by one EM round, which keeps every `q` an M-step's value. Each axis takes its
@@ -124,9 +133,11 @@ pub(crate) fn starts(
 ///
 /// Stops when a round moves no axis by more than `tolerance` (relative), when an EM round
 /// raises the log-likelihood by at most `likelihood_tolerance` nats per scan (and not below 0) (an axis heading
-/// for 0 never settles in `q`, but the likelihood does), or after `max_rounds` EM rounds;
-/// the last round's solution is a start for the solve at the returned `Qc`, close to its
-/// minimum.
+/// for 0 never settles in `q`, but the likelihood does), or after `max_rounds` EM rounds.
+/// The answer is the last round's `Qc` with its E-step, not the M-step that followed: within
+/// the tolerance of it when EM settled, and solved (to the smoother's own tolerance) at the
+/// `Qc` it states, so the batch mode needs no solve of its own. (Solving again at the M-step's
+/// `Qc` cost 3 Gauss–Newton steps and a round of marginals on the paper harbour.)
 pub(crate) fn estimate(
     options: &SmootherOptions,
     base: &Model<'_>,
@@ -142,46 +153,58 @@ pub(crate) fn estimate(
         sys: None,
         est,
         rounds: 0,
-        evidence: f64::NEG_INFINITY,
     };
-    let qc = from_start(&mut em, first, stop)?;
-    let mut best = (qc, em.evidence, em.est.clone());
+    let mut best = from_start(&mut em, first, stop)?;
     // Only a start that proved low on some axis (its `q` climbed) can have locked the robust
     // loss onto the prior; from above, the higher start would descend to the same place.
-    let climbed = qc.iter().zip(&first).any(|(q, q0)| q > q0);
+    let climbed = best
+        .as_ref()
+        .is_some_and(|(s, _)| s.qc.iter().zip(&first).any(|(q, q0)| q > q0));
     // A second start the smoother cannot solve (a prior so loose that the normal equations
     // fail) leaves the first's answer.
     if let (true, Some(qc0), Some(est)) = (climbed, second, again) {
         em.est = est;
-        if let Ok(qc) = from_start(&mut em, qc0, stop) {
-            if em.evidence > best.1 {
-                best = (qc, em.evidence, em.est);
+        if let Ok(Some(other)) = from_start(&mut em, qc0, stop) {
+            if best
+                .as_ref()
+                .is_none_or(|(_, evidence)| other.1 > *evidence)
+            {
+                best = Some(other);
             }
         }
     }
-    let (qc, _, est) = best;
+    let last = match best {
+        Some((last, _)) => last,
+        // No round ran (`max_rounds` 0): the first start's `Qc`.
+        None => {
+            let model = Model {
+                qc: first,
+                ..base.clone()
+            };
+            batch_with_marginals(&model, em.est, options)?
+        }
+    };
     Ok(Estimated {
-        qc,
         rounds: em.rounds,
-        est,
-        sys: em.sys,
+        last,
     })
 }
 
-/// What [`estimate`] gives: `Qc`, the EM rounds taken over all starts, the last round's
-/// solution (a start for the solve at `Qc`, close to its minimum), and the system the rounds
-/// were solved on (laid out and symbolically factorised once; none if no round ran), which
-/// that solve reuses.
+/// What [`estimate`] gives: the EM rounds taken over all starts, and the kept start's last
+/// round.
 pub(crate) struct Estimated {
-    pub qc: [f64; 3],
     pub rounds: usize,
-    pub est: Estimates,
-    pub sys: Option<SparseSystem>,
+    pub last: Solved,
 }
 
 /// [`estimate`] from `qc0` alone, in `em` (whose estimates it starts from and leaves at its
-/// last round's solution, and whose `evidence` is then that round's).
-fn from_start(em: &mut Em<'_>, qc0: [f64; 3], stop: &EmStop) -> Result<[f64; 3], SequenceError> {
+/// last round's solution): the last round kept (an extrapolation that lost likelihood is not)
+/// and its log-likelihood.
+fn from_start(
+    em: &mut Em<'_>,
+    qc0: [f64; 3],
+    stop: &EmStop,
+) -> Result<Option<(Solved, f64)>, SequenceError> {
     let times_s = em.base.times_s;
     let first_round = em.rounds;
     let tolerance = stop.tolerance;
@@ -193,14 +216,15 @@ fn from_start(em: &mut Em<'_>, qc0: [f64; 3], stop: &EmStop) -> Result<[f64; 3],
     let flat =
         |from: f64, to: f64| (0.0..=stop.likelihood_tolerance * per_scan).contains(&(to - from));
     let mut q0 = qc0;
+    let mut last = None;
     while em.rounds - first_round < stop.max_rounds {
-        let (q1, e0) = em.round(q0)?;
+        let (q1, r0) = em.round(q0)?;
         if settled(&q1, &q0) || em.rounds - first_round + 2 > stop.max_rounds {
-            return Ok(q1);
+            return Ok(Some(r0));
         }
-        let (q2, e1) = em.round(q1)?;
-        if settled(&q2, &q1) || flat(e0, e1) {
-            return Ok(q2);
+        let (q2, r1) = em.round(q1)?;
+        if settled(&q2, &q1) || flat(r0.1, r1.1) {
+            return Ok(Some(r1));
         }
         let (l0, l1, l2) = (q0.map(f64::ln), q1.map(f64::ln), q2.map(f64::ln));
         let jump: [f64; 3] = std::array::from_fn(|a| {
@@ -215,21 +239,21 @@ fn from_start(em: &mut Em<'_>, qc0: [f64; 3], stop: &EmStop) -> Result<[f64; 3],
                 .max(Q_FLOOR)
         });
         if !jump.iter().all(|q| q.is_finite()) {
-            q0 = q2;
+            (q0, last) = (q2, Some(r1));
             continue;
         }
         // An extrapolation the smoother cannot solve, or that lost likelihood: EM's q2.
         match em.round(jump) {
-            Ok((q3, e_jump)) if e_jump >= e1 => {
+            Ok((q3, r)) if r.1 >= r1.1 => {
                 if settled(&q3, &q2) {
-                    return Ok(q3);
+                    return Ok(Some(r));
                 }
-                q0 = q3;
+                (q0, last) = (q3, Some(r));
             }
-            _ => q0 = q2,
+            _ => (q0, last) = (q2, Some(r1)),
         }
     }
-    Ok(q0)
+    Ok(last)
 }
 
 /// When the estimation of `Qc` stops (see [`estimate`]).
@@ -248,14 +272,12 @@ struct Em<'a> {
     sys: Option<SparseSystem>,
     est: Estimates,
     rounds: usize,
-    /// The log-likelihood of the last round's `Qc`.
-    evidence: f64,
 }
 
 impl Em<'_> {
-    /// One EM round from `qc`: smooth (the E-step), then the M-step; also the log-likelihood
-    /// of `qc` ([`log_evidence`]).
-    fn round(&mut self, qc: [f64; 3]) -> Result<([f64; 3], f64), SequenceError> {
+    /// One EM round from `qc`: smooth (the E-step), then the M-step; the M-step's `Qc`, and
+    /// the E-step with the log-likelihood of `qc` ([`log_evidence`]).
+    fn round(&mut self, qc: [f64; 3]) -> Result<([f64; 3], (Solved, f64)), SequenceError> {
         let model = Model {
             qc,
             ..self.base.clone()
@@ -266,14 +288,19 @@ impl Em<'_> {
             none => none.insert(SparseSystem::new(&model, &self.layout, n)?),
         };
         // From the last round's solution, kept should this one fail.
-        let (smoothed, marginals, (cost, _)) =
+        let (est, marginals, (cost, stop)) =
             solve_with_marginals(&model, self.est.clone(), sys, &self.layout, self.options)?;
-        let next = m_step(&model, &smoothed, &marginals.own, &marginals.cross);
+        let next = m_step(&model, &est, &marginals.own, &marginals.cross);
         let evidence = log_evidence(&qc, n - 1, cost, marginals.log_det_h);
-        self.est = smoothed;
+        self.est.clone_from(&est);
         self.rounds += 1;
-        self.evidence = evidence;
-        Ok((next, evidence))
+        let solved = Solved {
+            qc,
+            est,
+            marginals,
+            stop,
+        };
+        Ok((next, (solved, evidence)))
     }
 }
 
@@ -390,10 +417,9 @@ mod tests {
                 sys: None,
                 est: start.clone(),
                 rounds: 0,
-                evidence: f64::NEG_INFINITY,
             };
-            let qc = from_start(&mut em, qc0, &stop).unwrap();
-            (qc, em.evidence, em.rounds)
+            let (last, evidence) = from_start(&mut em, qc0, &stop).unwrap().unwrap();
+            (last.qc, evidence, em.rounds)
         };
         let (low, high) = ([1e-6; 3], [10.0; 3]);
         let (from_low, low_evidence, low_rounds) = alone(low);
@@ -408,9 +434,12 @@ mod tests {
         } else {
             from_low
         };
-        assert_eq!(both.qc, likelier);
+        assert_eq!(both.last.qc, likelier);
         assert_eq!(both.rounds, low_rounds + high_rounds);
         let from_above = estimate(&options, &model, start, (high, Some(low)), &stop).unwrap();
-        assert_eq!((from_above.qc, from_above.rounds), (from_high, high_rounds));
+        assert_eq!(
+            (from_above.last.qc, from_above.rounds),
+            (from_high, high_rounds)
+        );
     }
 }
