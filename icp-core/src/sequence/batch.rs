@@ -187,12 +187,13 @@ impl SparseSystem {
     /// [`marginals`]).
     pub fn step(&mut self) -> Result<Vec<f64>, SequenceError> {
         self.factorise()?;
-        Ok(self.chord())
+        Ok(self.step_on_last_factor())
     }
 
-    /// `−H₀⁻¹g`: g as it is now, H₀ the system of the last factorisation (a simplified
-    /// Newton, or chord, step where the system was linearised again since).
-    fn chord(&mut self) -> Vec<f64> {
+    /// `−H₀⁻¹g`: g as it is now, H₀ the system of the last factorisation (the Gauss–Newton
+    /// step right after it; a simplified Newton, or chord, step where the system was
+    /// linearised again since).
+    fn step_on_last_factor(&mut self) -> Vec<f64> {
         let mut rhs = Mat::from_fn(self.g.len(), 1, |i, _| -self.g[i]);
         LltRef::new(&self.symbolic, &self.factor).solve_in_place_with_conj(
             Conj::No,
@@ -323,7 +324,7 @@ pub(crate) fn solve(
 /// linearisation, the robust weights' included), and H₀'s factor stands for the system at
 /// the result as the last Newton step's does in [`solve`].
 fn chord_step(sys: &mut SparseSystem, tolerance: f64) -> Result<Option<Vec<f64>>, SequenceError> {
-    let delta = sys.chord();
+    let delta = sys.step_on_last_factor();
     Ok((decrement(&sys.g, &delta)? <= tolerance).then_some(delta))
 }
 
