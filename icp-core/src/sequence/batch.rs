@@ -486,3 +486,6 @@ impl FactorColumns for SupernodeColumns<'_> {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -42,6 +42,8 @@ mod band;
 mod batch;
 mod causal;
 mod factors;
+#[cfg(test)]
+mod fixtures;
 pub(crate) use factors::{exp_from, wrap_rad};
 mod noise;
 mod scan_errors;
