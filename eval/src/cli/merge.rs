@@ -71,7 +71,7 @@ pub(crate) fn merge_cmd(args: MergeArgs) -> Result<ExitCode> {
     let identity = DatasetIdentity::of(&ds);
     if identity != plan.dataset {
         bail!(
-            "the dataset re-loaded for the merge ({}, {} scans, content {}) is not the one the              shards ran ({}, {} scans, content {}): run the merge where the shards' dataset              paths lead to the same files",
+            "the dataset re-loaded for the merge ({}, {} scans, content {}) is not the one the shards ran ({}, {} scans, content {}): run the merge where the shards' dataset paths lead to the same files",
             identity.name,
             identity.scans,
             identity.content_sha256,

@@ -386,10 +386,21 @@ impl DatasetIdentity {
     /// The identity of `ds`.
     pub fn of(ds: &Dataset) -> Self {
         let mut hash = Sha256::new();
-        // `{:?}` of an f64 is its shortest exact form: equal text, equal values.
+        // The scans' values by their bits: equal bits, equal values. (Their `{:?}` text, the
+        // shortest exact form, was a quarter of a merge's CPU.)
         for scan in &ds.scans {
-            hash.update(format!("{:?}{:?}", scan.timestamp_s(), scan.returns()).as_bytes());
+            match scan.timestamp_s() {
+                Some(t) => hash.update([&[1], &t.to_bits().to_le_bytes()[..]].concat()),
+                None => hash.update([0]),
+            }
+            hash.update((scan.returns().len() as u64).to_le_bytes());
+            for r in scan.returns() {
+                for v in [r.point.x, r.point.y, r.range_m, r.bearing_rad] {
+                    hash.update(v.to_bits().to_le_bytes());
+                }
+            }
         }
+        // The rest is small: its `{:?}` text, the shortest exact form of each value.
         hash.update(
             format!(
                 "{:?}{:?}{:?}{:?}{:?}{:?}{:?}",
@@ -725,7 +736,47 @@ fn hex(bytes: &[u8]) -> String {
 
 #[cfg(test)]
 mod tests {
+    use datasets::synthetic::{generate, Scenario};
+    use icp_core::Scan;
+
     use super::*;
+
+    /// The content hash tells datasets apart by any value of a scan: a range one unit in
+    /// the last place longer, a timestamp, a return fewer.
+    #[test]
+    fn the_dataset_identity_sees_every_value_of_every_scan() {
+        let ds = generate(&Scenario {
+            n_scans: 4,
+            ..Scenario::paper()
+        })
+        .unwrap();
+        let identity = DatasetIdentity::of(&ds);
+        assert_eq!(identity, DatasetIdentity::of(&ds.clone()));
+        let with_scan = |k: usize, scan: Scan| {
+            let mut other = ds.clone();
+            other.scans[k] = scan;
+            DatasetIdentity::of(&other).content_sha256
+        };
+        let polar = |scan: &Scan| -> (Vec<f64>, Vec<f64>) {
+            scan.returns()
+                .iter()
+                .map(|r| (r.range_m, r.bearing_rad))
+                .unzip()
+        };
+        // Scan 2 read again from its ranges and bearings, and changed once each way.
+        let (mut ranges, bearings) = polar(&ds.scans[2]);
+        let same = Scan::from_polar(&ranges, &bearings).unwrap();
+        let base = with_scan(2, same.clone());
+        assert_eq!(with_scan(2, same.clone()), base);
+        ranges[7] = f64::from_bits(ranges[7].to_bits() + 1);
+        let one_ulp = Scan::from_polar(&ranges, &bearings).unwrap();
+        assert_ne!(with_scan(2, one_ulp), base);
+        let timed = same.with_timestamp(0.0).unwrap();
+        assert_ne!(with_scan(2, timed), base);
+        let (ranges, bearings) = polar(&ds.scans[2]);
+        let fewer = Scan::from_polar(&ranges[1..], &bearings[1..]).unwrap();
+        assert_ne!(with_scan(2, fewer), base);
+    }
 
     #[test]
     fn every_unit_lands_in_exactly_one_part_and_parts_are_contiguous() {
