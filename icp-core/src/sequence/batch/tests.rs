@@ -1,7 +1,6 @@
 //! The batch solve's chord step.
 
 use super::super::fixtures::weaving_run;
-use super::super::system::Reg;
 use super::super::{initial_estimates, Geometry, SmootherOptions};
 use super::*;
 
@@ -28,16 +27,26 @@ fn relative_residual(sys: &SparseSystem, values: &[f64], x: &[f64], g: &[f64]) -
     norm(&mut hx.iter().zip(g).map(|(a, b)| a + b)) / norm(&mut g.iter().copied())
 }
 
-fn weaving_model<'a>(times_s: &'a [f64], regs: &'a [Reg]) -> Model<'a> {
-    Model {
+/// The weaving run's model, layout and system, and its chained start: `test` is given them and
+/// the number of scans.
+fn with_weaving_system(
+    test: impl FnOnce(&Model<'_>, &Layout, &mut SparseSystem, Estimates, usize),
+) {
+    let (times_s, regs) = weaving_run();
+    let model = Model {
         geometry: Geometry::Se2,
-        times_s,
-        regs,
+        times_s: &times_s,
+        regs: &regs,
         qc: [0.05, 0.01, 0.01],
         huber_k: SmootherOptions::default().huber_k,
         twist0: None,
         scan_errors: None,
-    }
+    };
+    let n = times_s.len();
+    let layout = model.layout(0, n);
+    let mut sys = SparseSystem::new(&model, &layout, n).unwrap();
+    let est = initial_estimates(Geometry::Se2, &times_s, &regs);
+    test(&model, &layout, &mut sys, est, n);
 }
 
 /// The solve on the last factor is the Newton step right after a factorisation, and a
@@ -45,31 +54,27 @@ fn weaving_model<'a>(times_s: &'a [f64], regs: &'a [Reg]) -> Model<'a> {
 /// the gradient now. The chord is taken only within the tolerance.
 #[test]
 fn a_chord_step_solves_the_factorised_system_with_the_gradient_now() {
-    let (times_s, regs) = weaving_run();
-    let model = weaving_model(&times_s, &regs);
-    let n = times_s.len();
-    let layout = model.layout(0, n);
-    let mut sys = SparseSystem::new(&model, &layout, n).unwrap();
-    let mut est = initial_estimates(Geometry::Se2, &times_s, &regs);
-    linearise(&model, &est, &layout, &mut sys);
-    let h0 = sys.mat.val().to_vec();
-    let newton = sys.step().unwrap();
-    assert!(relative_residual(&sys, &h0, &newton, &sys.g) < 1e-10);
-    assert_eq!(sys.step_on_last_factor(), newton);
+    with_weaving_system(|model, layout, sys, mut est, _| {
+        linearise(model, &est, layout, sys);
+        let h0 = sys.mat.val().to_vec();
+        let newton = sys.step().unwrap();
+        assert!(relative_residual(sys, &h0, &newton, &sys.g) < 1e-10);
+        assert_eq!(sys.step_on_last_factor(), newton);
 
-    layout.apply(Geometry::Se2, &mut est, &newton, 1.0);
-    linearise(&model, &est, &layout, &mut sys);
-    let moved = relative_residual(&sys, sys.mat.val(), &newton, &sys.g);
-    assert!(moved > 1e-3, "the system did not change: {moved}");
-    let chord = sys.step_on_last_factor();
-    assert!(relative_residual(&sys, &h0, &chord, &sys.g) < 1e-10);
-    // Not the Newton step of the system now.
-    assert!(relative_residual(&sys, sys.mat.val(), &chord, &sys.g) > 1e-6);
+        layout.apply(Geometry::Se2, &mut est, &newton, 1.0);
+        linearise(model, &est, layout, sys);
+        let moved = relative_residual(sys, sys.mat.val(), &newton, &sys.g);
+        assert!(moved > 1e-3, "the system did not change: {moved}");
+        let chord = sys.step_on_last_factor();
+        assert!(relative_residual(sys, &h0, &chord, &sys.g) < 1e-10);
+        // Not the Newton step of the system now.
+        assert!(relative_residual(sys, sys.mat.val(), &chord, &sys.g) > 1e-6);
 
-    let d = decrement(&sys.g, &chord).unwrap();
-    assert!(d > 0.0);
-    assert_eq!(chord_step(&mut sys, d).unwrap(), Some(chord));
-    assert_eq!(chord_step(&mut sys, 0.5 * d).unwrap(), None);
+        let d = decrement(&sys.g, &chord).unwrap();
+        assert!(d > 0.0);
+        assert_eq!(chord_step(sys, d).unwrap(), Some(chord));
+        assert_eq!(chord_step(sys, 0.5 * d).unwrap(), None);
+    });
 }
 
 /// A solve that a chord step ended is converged as a Newton step at its result says, and
@@ -77,36 +82,32 @@ fn a_chord_step_solves_the_factorised_system_with_the_gradient_now() {
 /// system at the result.
 #[test]
 fn a_solve_a_chord_step_ended_is_within_its_tolerance() {
-    let (times_s, regs) = weaving_run();
-    let model = weaving_model(&times_s, &regs);
-    let n = times_s.len();
-    let layout = model.layout(0, n);
-    let mut sys = SparseSystem::new(&model, &layout, n).unwrap();
-    let mut est = initial_estimates(Geometry::Se2, &times_s, &regs);
-    let tolerance = 1e-4;
-    let (_, stop) = solve(&model, &mut est, &mut sys, &layout, 100, tolerance).unwrap();
-    assert_eq!(stop, SolveStop::Converged);
-    // The factor kept is not the system last linearised: a chord step ended the solve.
-    let kept = sys.step_on_last_factor();
-    assert!(relative_residual(&sys, sys.mat.val(), &kept, &sys.g) > 1e-6);
-    let kept_marginals = marginals(&sys, &layout, n).unwrap();
+    with_weaving_system(|model, layout, sys, mut est, n| {
+        let tolerance = 1e-4;
+        let (_, stop) = solve(model, &mut est, sys, layout, 100, tolerance).unwrap();
+        assert_eq!(stop, SolveStop::Converged);
+        // The factor kept is not the system last linearised: a chord step ended the solve.
+        let kept = sys.step_on_last_factor();
+        assert!(relative_residual(sys, sys.mat.val(), &kept, &sys.g) > 1e-6);
+        let kept_marginals = marginals(sys, layout, n).unwrap();
 
-    linearise(&model, &est, &layout, &mut sys);
-    let newton = sys.step().unwrap();
-    let newton_decrement = decrement(&sys.g, &newton).unwrap();
-    assert!(
-        newton_decrement <= tolerance,
-        "a Newton step at the result: {newton_decrement}"
-    );
-    let fresh = marginals(&sys, &layout, n).unwrap();
-    let mut worst = 0.0_f64;
-    for (a, b) in kept_marginals.own.iter().zip(&fresh.own) {
-        for i in 0..6 {
-            if b[(i, i)] > 0.0 {
-                worst = worst.max((a[(i, i)] / b[(i, i)] - 1.0).abs());
+        linearise(model, &est, layout, sys);
+        let newton = sys.step().unwrap();
+        let newton_decrement = decrement(&sys.g, &newton).unwrap();
+        assert!(
+            newton_decrement <= tolerance,
+            "a Newton step at the result: {newton_decrement}"
+        );
+        let fresh = marginals(sys, layout, n).unwrap();
+        let mut worst = 0.0_f64;
+        for (a, b) in kept_marginals.own.iter().zip(&fresh.own) {
+            for i in 0..6 {
+                if b[(i, i)] > 0.0 {
+                    worst = worst.max((a[(i, i)] / b[(i, i)] - 1.0).abs());
+                }
             }
         }
-    }
-    // Three digits, as the estimation of `Qc` reads them (2.4e-5 here).
-    assert!(worst < 1e-3, "{worst}");
+        // Three digits, as the estimation of `Qc` reads them (2.4e-5 here).
+        assert!(worst < 1e-3, "{worst}");
+    });
 }
