@@ -390,7 +390,10 @@ impl DatasetIdentity {
         // shortest exact form, was a quarter of a merge's CPU.)
         for scan in &ds.scans {
             match scan.timestamp_s() {
-                Some(t) => hash.update([&[1], &t.to_bits().to_le_bytes()[..]].concat()),
+                Some(t) => {
+                    hash.update([1]);
+                    hash.update(t.to_bits().to_le_bytes());
+                }
                 None => hash.update([0]),
             }
             hash.update((scan.returns().len() as u64).to_le_bytes());
@@ -767,7 +770,6 @@ mod tests {
         let (mut ranges, bearings) = polar(&ds.scans[2]);
         let same = Scan::from_polar(&ranges, &bearings).unwrap();
         let base = with_scan(2, same.clone());
-        assert_eq!(with_scan(2, same.clone()), base);
         ranges[7] = f64::from_bits(ranges[7].to_bits() + 1);
         let one_ulp = Scan::from_polar(&ranges, &bearings).unwrap();
         assert_ne!(with_scan(2, one_ulp), base);

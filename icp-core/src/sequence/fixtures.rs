@@ -3,8 +3,8 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::factors;
-use super::system::Reg;
-use super::Geometry;
+use super::system::{Model, Reg};
+use super::{Geometry, SmootherOptions};
 
 /// 60 scans a second apart along a weaving track, registered at lags 1 and 2 with a few
 /// millimetres of noise (a fixed pseudo-random sequence) and every seventh lag-1
@@ -41,4 +41,18 @@ pub(crate) fn weaving_run() -> (Vec<f64>, Vec<Reg>) {
         }
     }
     (times_s, regs)
+}
+
+/// The model of a run's `times_s` and `regs` on SE(2) at process noise `qc`, with the default
+/// robust threshold and neither a first twist nor scan errors.
+pub(crate) fn weaving_model<'a>(times_s: &'a [f64], regs: &'a [Reg], qc: [f64; 3]) -> Model<'a> {
+    Model {
+        geometry: Geometry::Se2,
+        times_s,
+        regs,
+        qc,
+        huber_k: SmootherOptions::default().huber_k,
+        twist0: None,
+        scan_errors: None,
+    }
 }

@@ -348,7 +348,7 @@ fn m_step(model: &Model<'_>, est: &Estimates, own: &[Matrix6], cross: &[Matrix6]
 
 #[cfg(test)]
 mod tests {
-    use super::super::fixtures::weaving_run;
+    use super::super::fixtures::{weaving_model, weaving_run};
     use super::*;
 
     /// The estimation keeps the likelier start's `Qc`, and runs the second start only where
@@ -357,15 +357,7 @@ mod tests {
     fn the_likelier_start_is_kept_and_a_start_from_above_is_run_alone() {
         let (times_s, regs) = weaving_run();
         let options = SmootherOptions::default();
-        let model = Model {
-            geometry: Geometry::Se2,
-            times_s: &times_s,
-            regs: &regs,
-            qc: [1.0; 3],
-            huber_k: options.huber_k,
-            twist0: None,
-            scan_errors: None,
-        };
+        let model = weaving_model(&times_s, &regs, [1.0; 3]);
         let stop = EmStop {
             max_rounds: 50,
             tolerance: 1e-3,

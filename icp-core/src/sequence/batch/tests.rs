@@ -1,7 +1,7 @@
 //! The batch solve's chord step.
 
-use super::super::fixtures::weaving_run;
-use super::super::{initial_estimates, Geometry, SmootherOptions};
+use super::super::fixtures::{weaving_model, weaving_run};
+use super::super::{initial_estimates, Geometry};
 use super::*;
 
 /// `H x` for the H whose upper triangle `values` holds, in the pattern of `sys`.
@@ -23,8 +23,9 @@ fn h_times(sys: &SparseSystem, values: &[f64], x: &[f64]) -> Vec<f64> {
 /// `|H x + g| / |g|`: how far `x` is from solving `H x = −g`.
 fn relative_residual(sys: &SparseSystem, values: &[f64], x: &[f64], g: &[f64]) -> f64 {
     let hx = h_times(sys, values, x);
-    let norm = |v: &mut dyn Iterator<Item = f64>| v.map(|e| e * e).sum::<f64>().sqrt();
-    norm(&mut hx.iter().zip(g).map(|(a, b)| a + b)) / norm(&mut g.iter().copied())
+    let residual: f64 = hx.iter().zip(g).map(|(a, b)| (a + b).powi(2)).sum();
+    let gradient: f64 = g.iter().map(|e| e * e).sum();
+    (residual / gradient).sqrt()
 }
 
 /// The weaving run's model, layout and system, and its chained start: `test` is given them and
@@ -33,15 +34,7 @@ fn with_weaving_system(
     test: impl FnOnce(&Model<'_>, &Layout, &mut SparseSystem, Estimates, usize),
 ) {
     let (times_s, regs) = weaving_run();
-    let model = Model {
-        geometry: Geometry::Se2,
-        times_s: &times_s,
-        regs: &regs,
-        qc: [0.05, 0.01, 0.01],
-        huber_k: SmootherOptions::default().huber_k,
-        twist0: None,
-        scan_errors: None,
-    };
+    let model = weaving_model(&times_s, &regs, [0.05, 0.01, 0.01]);
     let n = times_s.len();
     let layout = model.layout(0, n);
     let mut sys = SparseSystem::new(&model, &layout, n).unwrap();
