@@ -204,6 +204,7 @@ def run(
     estimates: Sequence[str] = (),
     lags: int = 1,
     sequence: Sequence[str] | str = (),
+    motion_prior: str = "white_acceleration",
     matcher: str | None = None,
     huber_c: float | None = None,
     seed: int | None = None,
@@ -218,7 +219,8 @@ def run(
     suffixes: _m, _deg, _mps, _dps, _s; eval/README.md documents it). lags > 1 also registers
     k → k+ℓ for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does. sequence (["batch",
     "causal"] or "batch,causal", as --sequence) adds the smoothed estimators V+batch, V+causal
-    of each variant with a covariance, sequence.csv and V+causal.nmea. reference_offset: scans
+    of each variant with a covariance, sequence.csv and V+causal.nmea; motion_prior
+    ("white_acceleration" or "white_jerk", as --motion-prior) is their prior. reference_offset: scans
     (the default, 0, never applies an offset) or "auto" (the estimated one);
     reference_offset and reference_checks are refused on a dataset without a reference."""
 

@@ -18,7 +18,7 @@ use eval::run::init::InitChain;
 use eval::run::options::BuiltinOptions;
 use eval::run::options::RunOptions;
 use eval::run::options::{override_sensor, refuse_reference_options};
-use eval::run::sequence_setup::SequenceMode;
+use eval::run::sequence_setup::{SequenceMode, SequencePrior};
 use eval::run::setup::GlobalChecks;
 use eval::run::setup::OffsetChoice;
 use eval::run::setup::ReferenceChecks;
@@ -38,7 +38,7 @@ use crate::register::variant_spec;
 use crate::weighting::PyWeighting;
 
 /// The keyword options, named as the command line's flags (with `_` for `-`).
-const OPTIONS: [&str; 18] = [
+const OPTIONS: [&str; 19] = [
     "reference_offset",
     "reference_checks",
     "init",
@@ -50,6 +50,7 @@ const OPTIONS: [&str; 18] = [
     "estimates",
     "lags",
     "sequence",
+    "motion_prior",
     "matcher",
     "huber_c",
     "seed",
@@ -151,6 +152,7 @@ impl<'py> Options<'py> {
             estimates,
             lags: self.parse::<usize>("lags", "1")?,
             sequence: self.sequence()?,
+            motion_prior: self.word("motion_prior", SequencePrior::WhiteAcceleration)?,
         })
     }
 

@@ -11,7 +11,7 @@ use eval::run::covariance::CovarianceMode;
 use eval::run::estimates::{EstimatesSpec, TILT_NOTE_DEG};
 use eval::run::init::InitChain;
 use eval::run::options::{refuse_reference_options, RunOptions};
-use eval::run::sequence_setup::SequenceMode;
+use eval::run::sequence_setup::{SequenceMode, SequencePrior};
 use eval::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use eval::run::start_gate::StartGate;
 use eval::shard::Work;
@@ -84,6 +84,11 @@ pub(crate) struct RunArgs {
     /// `sequence.csv`. Comma-separated. See docs/sequence.md.
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) sequence: Vec<SequenceMode>,
+    /// The smoothers' motion prior between consecutive scans (with `--sequence`): white noise
+    /// on acceleration (a constant velocity) or on jerk (a constant acceleration, for a hull
+    /// whose acceleration changes slowly against the scans' rate). See docs/sequence.md.
+    #[arg(long, value_enum, default_value_t = SequencePrior::WhiteAcceleration)]
+    pub(crate) motion_prior: SequencePrior,
     /// Output directory.
     #[arg(long)]
     pub(crate) out: PathBuf,
@@ -114,6 +119,7 @@ impl RunArgs {
             estimates: self.estimates.clone(),
             lags: self.lags,
             sequence: self.sequence.clone(),
+            motion_prior: self.motion_prior,
         })
     }
 

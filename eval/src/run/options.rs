@@ -15,7 +15,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::EstimatesSpec;
 use crate::run::init::InitChain;
-use crate::run::sequence_setup::SequenceMode;
+use crate::run::sequence_setup::{SequenceMode, SequencePrior};
 use crate::run::setup::{EvalSetup, GlobalChecks, OffsetChoice, ReferenceChecks};
 use crate::run::start_gate::StartGate;
 
@@ -49,6 +49,9 @@ pub struct RunOptions {
     /// the `sequence` module of `run`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub sequence: Vec<SequenceMode>,
+    /// The smoothers' motion prior (`--motion-prior`).
+    #[serde(default, skip_serializing_if = "SequencePrior::is_default")]
+    pub motion_prior: SequencePrior,
 }
 
 /// `lags` of options written before `--lags` existed: consecutive pairs only.
@@ -74,7 +77,7 @@ impl RunOptions {
             .with_covariance(self.covariance)
             .with_estimates(estimates)
             .with_lags(self.lags)
-            .with_sequence(&self.sequence))
+            .with_sequence(&self.sequence, self.motion_prior))
     }
 }
 

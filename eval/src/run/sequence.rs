@@ -46,7 +46,7 @@ use crate::run::lags::{LagPair, LagRuns};
 use crate::run::runner::{run_scans, PairRun, Runs};
 use crate::run::sequence_records::records;
 pub use crate::run::sequence_records::SequenceRecord;
-use crate::run::sequence_setup::SequenceMode;
+use crate::run::sequence_setup::{SequenceMode, SequencePrior};
 use crate::run::setup::EvalSetup;
 use crate::run::status::{apart, PairStatus, CHI2_3_AT_999};
 
@@ -63,8 +63,11 @@ pub struct SequenceSummary {
     /// registrations does not close (`measure::cycles::loop_open`).
     #[serde(default)]
     pub left_out_loop_open: usize,
-    /// The prior's process noise `[surge m²/s³, sway m²/s³, yaw rad²/s³]`, estimated from the
-    /// run (expectation–maximisation, the batch smoother's).
+    /// The motion prior (`--motion-prior`).
+    #[serde(default)]
+    pub motion_prior: SequencePrior,
+    /// The prior's process noise `[surge m²/s³, sway m²/s³, yaw rad²/s³]` (white noise on
+    /// jerk: per s⁵), estimated from the run (expectation–maximisation, the batch smoother's).
     pub qc: Option<[f64; 3]>,
     /// Expectation–maximisation rounds.
     pub em_rounds: usize,
@@ -208,7 +211,7 @@ fn smooth_variant(
     cov_of: &dyn Fn(&PairRun) -> Option<Matrix3<f64>>,
 ) -> Vec<Estimator> {
     let (regs, left_out) = registrations(run.pairs, run.scans, own, cov_of);
-    let options = SmootherOptions::default();
+    let options = smoother_options(setup);
     let started = Instant::now();
     let batch = sequence::smooth(run.times, &regs, Mode::Batch, &options);
     let batch_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -270,6 +273,7 @@ fn smooth_variant(
                     registrations: solved.registrations,
                     left_out: solved.left_out.flagged + solved.left_out.loop_open,
                     left_out_loop_open: solved.left_out.loop_open,
+                    motion_prior: setup.sequence.prior(),
                     qc: em.map(|b| b.qc),
                     em_rounds: em.map_or(0, |b| b.em_iterations),
                     scan_share: em.map(|b| b.scan_share.share),
@@ -282,6 +286,14 @@ fn smooth_variant(
             }
         })
         .collect()
+}
+
+/// The smoothers' options in `setup`: the defaults under its motion prior.
+fn smoother_options(setup: &EvalSetup) -> SmootherOptions {
+    SmootherOptions {
+        motion_prior: setup.sequence.prior().motion_prior(),
+        ..SmootherOptions::default()
+    }
 }
 
 /// `V+deskew`: the run's scans deskewed by the twists of `batch`, the variant's registrations
@@ -325,7 +337,7 @@ fn deskewed<'a>(
         across: across.as_ref().map(|(l, r)| (*l, &r[..])),
     };
     let (regs, left_out) = registrations(run.pairs, run.scans, again, cov_of);
-    let out = sequence::smooth(run.times, &regs, Mode::Batch, &SmootherOptions::default());
+    let out = sequence::smooth(run.times, &regs, Mode::Batch, &smoother_options(setup));
     Solve {
         out: out.map_err(Failure::Smoother),
         registrations: regs.len(),

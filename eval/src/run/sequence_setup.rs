@@ -1,6 +1,7 @@
 //! What `--sequence` asks for: the smoothers' modes and the estimators they add (see
 //! the `sequence` module, which makes them).
 
+use icp_core::sequence::MotionPrior;
 use icp_core::Registrar;
 use serde::{Deserialize, Serialize};
 
@@ -28,13 +29,42 @@ impl SequenceMode {
     }
 }
 
+/// The smoothers' motion prior on the command line (`icp_core::sequence::MotionPrior`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum SequencePrior {
+    /// White noise on acceleration: a constant velocity between scans (the default).
+    #[default]
+    WhiteAcceleration,
+    /// White noise on jerk: a constant acceleration between scans, each scan's state holding
+    /// its body acceleration.
+    WhiteJerk,
+}
+
+impl SequencePrior {
+    /// The smoother's prior.
+    pub fn motion_prior(self) -> MotionPrior {
+        match self {
+            Self::WhiteAcceleration => MotionPrior::WhiteAcceleration,
+            Self::WhiteJerk => MotionPrior::WhiteJerk,
+        }
+    }
+
+    /// Whether it is the default (left out of the options written).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
 /// The smoothed estimators of a run: the modes, the variants smoothed (those whose metric has
-/// a covariance: not point-to-point), and the estimators' names (variant-major).
+/// a covariance: not point-to-point), the estimators' names (variant-major) and the smoothers'
+/// motion prior.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SequenceSetup {
     modes: Vec<SequenceMode>,
     variants: Vec<usize>,
     names: Vec<String>,
+    prior: SequencePrior,
 }
 
 impl SequenceSetup {
@@ -66,7 +96,18 @@ impl SequenceSetup {
             },
             modes: unique,
             names,
+            prior: SequencePrior::default(),
         }
+    }
+
+    /// The same estimators smoothed under `prior`.
+    pub fn with_prior(self, prior: SequencePrior) -> Self {
+        Self { prior, ..self }
+    }
+
+    /// The smoothers' motion prior.
+    pub fn prior(&self) -> SequencePrior {
+        self.prior
     }
 
     /// The variants smoothed (indices into the setup's variants).

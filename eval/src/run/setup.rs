@@ -11,7 +11,7 @@ use crate::error::EvalError;
 use crate::run::covariance::CovarianceMode;
 use crate::run::estimates::ExternalEstimates;
 use crate::run::init::InitChain;
-use crate::run::sequence_setup::{SequenceMode, SequenceSetup};
+use crate::run::sequence_setup::{SequenceMode, SequencePrior, SequenceSetup};
 use crate::run::start_gate::{self, StartGate};
 
 /// How the reference is aligned in time with the scans.
@@ -101,9 +101,9 @@ impl EvalSetup {
         Ok(setup.with_covariance(CovarianceMode::Off))
     }
 
-    /// The same setup smoothing each variant over the scan sequence in `modes`.
-    pub fn with_sequence(mut self, modes: &[SequenceMode]) -> Self {
-        self.sequence = SequenceSetup::new(modes, &self.variants);
+    /// The same setup smoothing each variant over the scan sequence in `modes` under `prior`.
+    pub fn with_sequence(mut self, modes: &[SequenceMode], prior: SequencePrior) -> Self {
+        self.sequence = SequenceSetup::new(modes, &self.variants).with_prior(prior);
         self
     }
 

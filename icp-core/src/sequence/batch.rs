@@ -14,10 +14,9 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, Mat, MatRef, Par, Side};
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use super::band::{inverse_in_band, FactorColumns};
-use super::factors::Matrix6;
 use super::system::{descend, stopped, Discard, Estimates, Layout, Model, Sink};
 use super::{SequenceError, SolveStop};
 
@@ -71,8 +70,10 @@ impl SparseSystem {
             add(&[
                 layout.pose(k),
                 layout.twist(k),
+                layout.accel(k),
                 layout.pose(k + 1),
                 layout.twist(k + 1),
+                layout.accel(k + 1),
             ]);
         }
         for k in 0..n_states {
@@ -238,7 +239,7 @@ pub(crate) fn linearise(
 
 /// Adds every factor of `model` at `est` into `sink`; returns the total cost.
 fn add_all<S: Sink>(model: &Model<'_>, est: &Estimates, layout: &Layout, sink: &mut S) -> f64 {
-    let mut cost = model.add_twist0(est, layout, sink);
+    let mut cost = model.add_initial(est, layout, sink);
     for k in 0..est.poses.len() - 1 {
         cost += model.add_prior(est, layout, k, sink);
     }
@@ -336,22 +337,27 @@ fn decrement(g: &[f64], delta: &[f64]) -> Result<f64, SequenceError> {
     Ok(-g.iter().zip(delta).map(|(g, d)| g * d).sum::<f64>())
 }
 
+/// The covariance of a scan's `[pose; twist; acceleration]` (the acceleration's rows and
+/// columns zero where the model has none).
+pub(crate) type StateMarginal = SMatrix<f64, 9, 9>;
+
 /// The marginals of a solution (see [`marginals`]).
 pub(crate) struct Marginals {
-    /// Each scan's `[pose; twist]` covariance (scan 0's pose rows zero).
-    pub own: Vec<Matrix6>,
+    /// Each scan's `[pose; twist; acceleration]` covariance (scan 0's pose rows zero).
+    pub own: Vec<StateMarginal>,
     /// `Σ_k,k+1` of consecutive scans.
-    pub cross: Vec<Matrix6>,
+    pub cross: Vec<StateMarginal>,
     /// `ln det H` of the system.
     pub log_det_h: f64,
 }
 
-/// The marginal covariance of each scan's `[pose; twist]` (scan 0's pose rows zero; its error,
+/// The marginal covariance of each scan's `[pose; twist; acceleration]` (scan 0's pose rows
+/// zero; its error,
 /// where the model has them, is marginalised out like every scan's), the
 /// cross-covariance `Σ_k,k+1` of consecutive scans, and `ln det H`: from the entries of `H⁻¹`
 /// within H's band ([`inverse_in_band`]), by the Cholesky factor of the system as [`solve`]
 /// left it. Scan k's blocks and the next scan's are read from the recursion's window when
-/// the first column of scan k's pose and twist is done; one that lies outside it (a layout
+/// the first column of scan k's pose, twist and acceleration is done; one that lies outside it (a layout
 /// whose band is narrower than two scans) is an error, not a zero.
 pub(crate) fn marginals(
     sys: &SparseSystem,
@@ -360,17 +366,17 @@ pub(crate) fn marginals(
 ) -> Result<Marginals, SequenceError> {
     let scalars = |k: usize| {
         let blocks = layout.state_blocks(k);
-        std::array::from_fn::<_, 2, _>(|s| blocks[s].map(|block| 3 * block))
+        std::array::from_fn::<_, 3, _>(|s| blocks[s].map(|block| 3 * block))
     };
-    // Scan k by the first column of its pose and twist.
+    // Scan k by the first column of its pose, twist and acceleration.
     let mut scan_at = vec![None; sys.g.len()];
     for k in 0..n_states {
         if let Some(first) = scalars(k).into_iter().flatten().min() {
             scan_at[first] = Some(k);
         }
     }
-    let mut own = vec![Matrix6::zeros(); n_states];
-    let mut cross = vec![Matrix6::zeros(); n_states.saturating_sub(1)];
+    let mut own = vec![StateMarginal::zeros(); n_states];
+    let mut cross = vec![StateMarginal::zeros(); n_states.saturating_sub(1)];
     let mut outside = false;
     let log_det_h = inverse_in_band(
         sys.g.len(),
@@ -378,7 +384,7 @@ pub(crate) fn marginals(
         &mut SupernodeColumns::new(sys)?,
         |j, window| {
             let Some(k) = scan_at[j] else { return };
-            let mut block = |a: usize, b: usize, out: &mut Matrix6| {
+            let mut block = |a: usize, b: usize, out: &mut StateMarginal| {
                 for (sa, ia) in scalars(a).into_iter().enumerate() {
                     let Some(ia) = ia else { continue };
                     for (sb, ib) in scalars(b).into_iter().enumerate() {

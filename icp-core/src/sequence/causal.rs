@@ -5,9 +5,11 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, Matrix3, Vector3};
 
-use super::factors::{self, Matrix6};
+use super::factors;
 use super::system::{descend, stopped, Discard, Estimates, Layout, Model, Sink};
-use super::{Outputs, ScanEstimate, SequenceError, SmootherOptions, SolveStop, StepEstimate};
+use super::{
+    Outputs, ScanEstimate, SequenceError, SmootherOptions, SolveStop, StateCovariance, StepEstimate,
+};
 
 /// H and g of a window, dense.
 struct DenseSystem {
@@ -169,7 +171,8 @@ pub(crate) fn run(
     Ok(((scans, steps), stop))
 }
 
-/// Starts scan k from k−1's twist held over Δt (or the registration k−1 → k where there is one).
+/// Starts scan k from k−1's twist held over Δt (or the registration k−1 → k where there is one),
+/// and k−1's acceleration.
 fn predict(model: &Model<'_>, est: &mut Estimates, k: usize) {
     let reg = model
         .regs
@@ -188,6 +191,7 @@ fn predict(model: &Model<'_>, est: &mut Estimates, k: usize) {
     } else {
         est.twists[k - 1]
     };
+    est.accels[k] = est.accels[k - 1];
 }
 
 /// The factors of the window over scans `first..=k` (laid out as `layout`): the priors and
@@ -206,7 +210,7 @@ impl Window<'_> {
         let (model, layout) = (self.model, self.layout);
         let mut cost = 0.0;
         if self.first == 0 {
-            cost += model.add_twist0(est, layout, sink);
+            cost += model.add_initial(est, layout, sink);
         }
         for j in self.first..self.k {
             cost += model.add_prior(est, layout, j, sink);
@@ -284,7 +288,7 @@ fn marginalise(
     let layout = model.layout(first, k - first + 1);
     let mut sys = DenseSystem::zeros(layout.dim());
     if first == 0 {
-        model.add_twist0(est, &layout, &mut sys);
+        model.add_initial(est, &layout, &mut sys);
     }
     model.add_prior(est, &layout, first, &mut sys);
     model.add_scan_error(est, &layout, first, &mut sys);
@@ -319,8 +323,8 @@ fn marginalise(
 
 /// The `[pose; twist]` covariance block of states `a` (rows) and `b` (columns) from the
 /// window's `cov`.
-fn block(cov: &DMatrix<f64>, layout: &Layout, a: usize, b: usize) -> Matrix6 {
-    let mut out = Matrix6::zeros();
+fn block(cov: &DMatrix<f64>, layout: &Layout, a: usize, b: usize) -> StateCovariance {
+    let mut out = StateCovariance::zeros();
     for (sa, ba) in layout.state_blocks(a).into_iter().take(2).enumerate() {
         let Some(ba) = ba else { continue };
         for (sb, bb) in layout.state_blocks(b).into_iter().take(2).enumerate() {

@@ -1,18 +1,11 @@
-//! The smoother's two factors, linearised: the white-noise-on-acceleration motion prior between
-//! consecutive scans and a registration at any lag. Poses are `(x m, y m, θ rad)` of
+//! The smoother's two factors, linearised: the motion prior between consecutive scans (white
+//! noise on acceleration or on jerk) and a registration at any lag. Poses are `(x m, y m, θ rad)` of
 //! `t_world_body`, updated additively; twists are `(surge m/s, sway m/s, yaw rad/s)` in the body
 //! frame.
 
 use nalgebra::{Matrix2, Matrix3, SMatrix, SVector, Vector2, Vector3};
 
 use super::Geometry;
-
-/// A 6-vector (prior residual: pose part then twist part).
-pub(crate) type Vector6 = SVector<f64, 6>;
-/// A 6×6 matrix.
-pub(crate) type Matrix6 = SMatrix<f64, 6, 6>;
-/// A 6×3 Jacobian block (prior residual against one 3-vector).
-pub(crate) type Matrix6x3 = SMatrix<f64, 6, 3>;
 
 /// Wraps an angle to (−π, π].
 pub(crate) fn wrap_rad(angle_rad: f64) -> f64 {
@@ -92,60 +85,104 @@ pub(crate) fn log_between(
     (Vector3::new(rho.x, rho.y, phi), j_k, j_k1)
 }
 
-/// The prior between scans k and k+1 (Barfoot, Tong & Särkkä 2014; STEAM's constant-velocity
-/// prior on SE(2)), linearised: residual `e = [Log(T_k⁻¹T_k+1) − Δt·ϖ_k ; ϖ_k+1 − ϖ_k]` and its
-/// Jacobians against `pose_k`, `twist_k`, `pose_k1`, `twist_k1`.
+/// The prior between scans k and k+1, linearised, for a state of `O = R/3` 3-vectors per scan
+/// (`B = 2O` Jacobian blocks): pose `T`, twist `ϖ` and, for white noise on jerk, body
+/// acceleration `α`. Its residual holds `O` 3-vectors: what the Taylor expansion of the state at
+/// k leaves unexplained at k+1 (Barfoot, Tong & Särkkä 2014 for `O = 2`, STEAM's
+/// constant-velocity prior on SE(2); Tang, Yoon & Barfoot 2019 for `O = 3`):
+/// - `e₀ = Log(T_k⁻¹T_k+1) − Δt·ϖ_k (− Δt²/2·α_k)`,
+/// - `e₁ = ϖ_k+1 − ϖ_k (− Δt·α_k)`,
+/// - `e₂ = α_k+1 − α_k` (white noise on jerk only),
+///
+/// with Jacobians against `[T_k, ϖ_k, (α_k,) T_k+1, ϖ_k+1, (α_k+1)]`.
 ///
 /// STEAM's velocity residual is `J⁻¹(ξ)·ϖ_k+1 − ϖ_k`; since `ξ ≈ Δt·ϖ_k+1` and `ad(ϖ)ϖ = 0`,
 /// `J⁻¹(ξ)ϖ_k+1 − ϖ_k+1 = ½ ad(ξ)ϖ_k+1 + …` is of the order of Δt² times the acceleration, and is
-/// left out.
-pub(crate) struct PriorLinearised {
-    pub residual: Vector6,
-    pub jacobians: [Matrix6x3; 4],
+/// left out (so is its like in the acceleration's residual).
+pub(crate) struct PriorLinearised<const R: usize, const B: usize> {
+    pub residual: SVector<f64, R>,
+    pub jacobians: [SMatrix<f64, R, 3>; B],
 }
 
-pub(crate) fn prior(
+/// `Δtⁿ/n!`, the Taylor coefficient of a state's n-th derivative.
+fn taylor(dt_s: f64, n: usize) -> f64 {
+    match n {
+        0 => 1.0,
+        1 => dt_s,
+        _ => dt_s.powi(n as i32) / (1..=n).product::<usize>() as f64,
+    }
+}
+
+/// [`PriorLinearised`] at the states of scan k (`at_k`: pose, twist and, for `O = 3`,
+/// acceleration) and of scan k+1 (`at_k1`).
+pub(crate) fn prior<const R: usize, const B: usize>(
     geometry: Geometry,
-    pose_k: &Vector3<f64>,
-    twist_k: &Vector3<f64>,
-    pose_k1: &Vector3<f64>,
-    twist_k1: &Vector3<f64>,
+    at_k: &[Vector3<f64>],
+    at_k1: &[Vector3<f64>],
     dt_s: f64,
-) -> PriorLinearised {
-    let (xi, j_pk, j_pk1) = log_between(geometry, pose_k, pose_k1);
-    let e_pos = xi - twist_k * dt_s;
-    let e_vel = twist_k1 - twist_k;
-    let mut residual = Vector6::zeros();
-    residual.fixed_rows_mut::<3>(0).copy_from(&e_pos);
-    residual.fixed_rows_mut::<3>(3).copy_from(&e_vel);
-    let mut jacobians = [Matrix6x3::zeros(); 4];
+) -> PriorLinearised<R, B> {
+    let order = R / 3;
+    debug_assert!(B == 2 * order && at_k.len() == order && at_k1.len() == order);
+    let (xi, j_pk, j_pk1) = log_between(geometry, &at_k[0], &at_k1[0]);
+    let mut residual = SVector::<f64, R>::zeros();
+    let mut jacobians = [SMatrix::<f64, R, 3>::zeros(); B];
+    for i in 0..order {
+        // What scan k's expansion predicts of derivative i at k+1, subtracted.
+        let mut e = if i == 0 { xi } else { at_k1[i] };
+        for (j, d) in at_k.iter().enumerate().skip(i.max(1)) {
+            let c = taylor(dt_s, j - i);
+            e -= d * c;
+            jacobians[j]
+                .fixed_view_mut::<3, 3>(3 * i, 0)
+                .copy_from(&(-Matrix3::identity() * c));
+        }
+        residual.fixed_rows_mut::<3>(3 * i).copy_from(&e);
+        if i > 0 {
+            jacobians[order + i]
+                .fixed_view_mut::<3, 3>(3 * i, 0)
+                .copy_from(&Matrix3::identity());
+        }
+    }
     jacobians[0].fixed_view_mut::<3, 3>(0, 0).copy_from(&j_pk);
-    jacobians[1]
+    jacobians[order]
         .fixed_view_mut::<3, 3>(0, 0)
-        .copy_from(&(-Matrix3::identity() * dt_s));
-    jacobians[1]
-        .fixed_view_mut::<3, 3>(3, 0)
-        .copy_from(&(-Matrix3::identity()));
-    jacobians[2].fixed_view_mut::<3, 3>(0, 0).copy_from(&j_pk1);
-    jacobians[3]
-        .fixed_view_mut::<3, 3>(3, 0)
-        .copy_from(&Matrix3::identity());
+        .copy_from(&j_pk1);
     PriorLinearised {
         residual,
         jacobians,
     }
 }
 
-/// The information `Q⁻¹` of the prior over `dt_s`: `Q = [[Δt³/3, Δt²/2], [Δt²/2, Δt]] ⊗ Qc`,
-/// `Qc = diag(qc)`, so `Q⁻¹ = [[12/Δt³, −6/Δt²], [−6/Δt², 4/Δt]] ⊗ Qc⁻¹`.
-pub(crate) fn prior_information(qc: &[f64; 3], dt_s: f64) -> Matrix6 {
-    let mut info = Matrix6::zeros();
+/// Per axis, `A(Δt)⁻¹ = [C_ij / Δt^(2O−1−i−j)]` for a state of `O` derivatives, `C` for
+/// `O = 2` (`A = [[Δt³/3, Δt²/2], [Δt²/2, Δt]]`) and `O = 3` (`A = [[Δt⁵/20, Δt⁴/8, Δt³/6],
+/// [Δt⁴/8, Δt³/3, Δt²/2], [Δt³/6, Δt²/2, Δt]]`).
+const A_INVERSE: [[[f64; 3]; 3]; 2] = [
+    [[12.0, -6.0, 0.0], [-6.0, 4.0, 0.0], [0.0, 0.0, 0.0]],
+    [
+        [720.0, -360.0, 60.0],
+        [-360.0, 192.0, -36.0],
+        [60.0, -36.0, 9.0],
+    ],
+];
+
+/// Entry `(i, j)` of `A(Δt)⁻¹` for a state of `order` (2 or 3) derivatives, with `scale` times
+/// `C_ij` (2 sums an off-diagonal entry's two places at once).
+pub(crate) fn a_inverse(order: usize, dt_s: f64, i: usize, j: usize, scale: f64) -> f64 {
+    scale * A_INVERSE[order - 2][i][j] / dt_s.powi((2 * order - 1 - i - j) as i32)
+}
+
+/// The information `Q⁻¹` of the prior over `dt_s` for a state of `R/3` derivatives:
+/// `Q = A(Δt) ⊗ Qc`, `Qc = diag(qc)`, so `Q⁻¹ = A(Δt)⁻¹ ⊗ Qc⁻¹` ([`a_inverse`]).
+pub(crate) fn prior_information<const R: usize>(qc: &[f64; 3], dt_s: f64) -> SMatrix<f64, R, R> {
+    let order = R / 3;
+    let mut info = SMatrix::<f64, R, R>::zeros();
     for (axis, &q) in qc.iter().enumerate() {
         let qi = 1.0 / q;
-        info[(axis, axis)] = 12.0 / dt_s.powi(3) * qi;
-        info[(axis, axis + 3)] = -6.0 / dt_s.powi(2) * qi;
-        info[(axis + 3, axis)] = -6.0 / dt_s.powi(2) * qi;
-        info[(axis + 3, axis + 3)] = 4.0 / dt_s * qi;
+        for i in 0..order {
+            for j in 0..order {
+                info[(axis + 3 * i, axis + 3 * j)] = a_inverse(order, dt_s, i, j, 1.0) * qi;
+            }
+        }
     }
     info
 }
@@ -289,6 +326,94 @@ mod tests {
         let n_b = numeric(|x| compose(Geometry::Se2, &a, x).0, &b);
         assert!((j_a - n_a).abs().max() < 1e-8, "{j_a} {n_a}");
         assert!((j_b - n_b).abs().max() < 1e-8, "{j_b} {n_b}");
+    }
+
+    #[test]
+    fn the_priors_information_inverts_its_covariance() {
+        // A per unit q, written out independently of `A_INVERSE`.
+        let a = |order: usize, dt: f64| -> nalgebra::DMatrix<f64> {
+            let full = [
+                [dt.powi(5) / 20.0, dt.powi(4) / 8.0, dt.powi(3) / 6.0],
+                [dt.powi(4) / 8.0, dt.powi(3) / 3.0, dt.powi(2) / 2.0],
+                [dt.powi(3) / 6.0, dt.powi(2) / 2.0, dt],
+            ];
+            let skip = 3 - order;
+            nalgebra::DMatrix::from_fn(order, order, |i, j| full[i + skip][j + skip])
+        };
+        for order in [2, 3] {
+            for dt in [0.05, 0.5, 1.0, 3.7] {
+                let inv = nalgebra::DMatrix::from_fn(order, order, |i, j| {
+                    a_inverse(order, dt, i, j, 1.0)
+                });
+                let product = a(order, dt) * inv;
+                let off = (product - nalgebra::DMatrix::identity(order, order))
+                    .abs()
+                    .max();
+                assert!(off < 1e-9, "order {order}, Δt {dt}: {off:e}");
+            }
+        }
+        // And the 9×9 information over three axes of their own q.
+        let (qc, dt) = ([0.3, 0.02, 1e-4], 0.7);
+        let info = prior_information::<9>(&qc, dt);
+        let full = [
+            [dt.powi(5) / 20.0, dt.powi(4) / 8.0, dt.powi(3) / 6.0],
+            [dt.powi(4) / 8.0, dt.powi(3) / 3.0, dt.powi(2) / 2.0],
+            [dt.powi(3) / 6.0, dt.powi(2) / 2.0, dt],
+        ];
+        let q = SMatrix::<f64, 9, 9>::from_fn(|r, c| {
+            if r % 3 == c % 3 {
+                full[r / 3][c / 3] * qc[r % 3]
+            } else {
+                0.0
+            }
+        });
+        let off = (q * info - SMatrix::<f64, 9, 9>::identity()).abs().max();
+        assert!(off < 1e-9, "{off:e}");
+    }
+
+    #[test]
+    fn the_jerk_priors_jacobians_match_central_differences() {
+        let at_k = [
+            Vector3::new(1.3, -0.4, 0.7),
+            Vector3::new(2.0, 0.2, 0.3),
+            Vector3::new(0.1, -0.05, 0.02),
+        ];
+        let at_k1 = [
+            Vector3::new(3.1, 0.9, 1.05),
+            Vector3::new(2.2, 0.1, 0.35),
+            Vector3::new(0.12, -0.04, 0.01),
+        ];
+        let dt = 0.9;
+        let lin = prior::<9, 6>(Geometry::Se2, &at_k, &at_k1, dt);
+        for block in 0..6 {
+            let (scan, d) = (block / 3, block % 3);
+            let mut numeric = SMatrix::<f64, 9, 3>::zeros();
+            for c in 0..3 {
+                let residual = |h: f64| {
+                    let (mut a, mut b) = (at_k, at_k1);
+                    let v = if scan == 0 { &mut a[d] } else { &mut b[d] };
+                    v[c] += h;
+                    prior::<9, 6>(Geometry::Se2, &a, &b, dt).residual
+                };
+                numeric.set_column(c, &((residual(1e-6) - residual(-1e-6)) / 2e-6));
+            }
+            let off = (lin.jacobians[block] - numeric).abs().max();
+            assert!(off < 1e-8, "block {block}: {off:e}");
+        }
+        // Where the expansion holds exactly (no rotation, the acceleration constant), the
+        // residual is zero.
+        let still = [
+            Vector3::zeros(),
+            Vector3::new(2.0, 0.0, 0.0),
+            Vector3::new(0.4, 0.0, 0.0),
+        ];
+        let end = [
+            Vector3::new(2.0 * dt + 0.2 * dt * dt, 0.0, 0.0),
+            Vector3::new(2.0 + 0.4 * dt, 0.0, 0.0),
+            still[2],
+        ];
+        let lin = prior::<9, 6>(Geometry::Se2, &still, &end, dt);
+        assert!(lin.residual.abs().max() < 1e-12, "{}", lin.residual);
     }
 
     #[test]

@@ -4,7 +4,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::factors;
 use super::system::{Model, Reg};
-use super::{Geometry, SmootherOptions};
+use super::{Geometry, MotionPrior, SmootherOptions};
 
 /// 60 scans a second apart along a weaving track, registered at lags 1 and 2 with a few
 /// millimetres of noise (a fixed pseudo-random sequence) and every seventh lag-1
@@ -50,9 +50,11 @@ pub(crate) fn weaving_model<'a>(times_s: &'a [f64], regs: &'a [Reg], qc: [f64; 3
         geometry: Geometry::Se2,
         times_s,
         regs,
+        prior: MotionPrior::WhiteAcceleration,
         qc,
         huber_k: SmootherOptions::default().huber_k,
         twist0: None,
+        accel0: None,
         scan_errors: None,
     }
 }

@@ -99,6 +99,32 @@ pub enum Geometry {
     Linear,
 }
 
+/// The motion prior between consecutive scans: what the state of a scan holds, and what is
+/// white noise.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MotionPrior {
+    /// White noise on acceleration, a constant velocity between scans (Barfoot, Tong & Särkkä
+    /// 2014; STEAM's): a scan's state is its pose and twist, `Qc` in m²/s³ and rad²/s³.
+    #[default]
+    WhiteAcceleration,
+    /// White noise on jerk, a constant acceleration between scans (Tang, Yoon & Barfoot
+    /// 2019): a scan's state also holds its body acceleration, and `Qc` is in m²/s⁵ and
+    /// rad²/s⁵. Where a hull's acceleration changes slowly against the scans' rate (its
+    /// acceleration correlated from scan to scan), this prior holds it where white noise on
+    /// acceleration has to be loose enough for every change of velocity.
+    WhiteJerk,
+}
+
+impl MotionPrior {
+    /// The derivatives a scan's state holds: pose and twist (2), and acceleration (3).
+    pub fn order(self) -> usize {
+        match self {
+            Self::WhiteAcceleration => 2,
+            Self::WhiteJerk => 3,
+        }
+    }
+}
+
 /// Where the prior's `Qc` comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ProcessNoise {
@@ -111,7 +137,7 @@ pub enum ProcessNoise {
         tolerance: f64,
         likelihood_tolerance: f64,
     },
-    /// Given: `[surge m²/s³, sway m²/s³, yaw rad²/s³]`.
+    /// Given: `[surge m²/s³, sway m²/s³, yaw rad²/s³]` (white noise on jerk: per s⁵).
     Fixed([f64; 3]),
 }
 
@@ -119,6 +145,8 @@ pub enum ProcessNoise {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SmootherOptions {
     pub geometry: Geometry,
+    /// The motion prior; white noise on acceleration by default.
+    pub motion_prior: MotionPrior,
     pub process_noise: ProcessNoise,
     /// Huber threshold on a registration's Mahalanobis distance. Default 3.37 = √χ²₃(0.99): a
     /// registration as good as its covariance says keeps full weight 99 % of the time.
@@ -139,12 +167,16 @@ pub struct SmootherOptions {
     /// What is known of scan 0's twist, if anything (a vessel leaving the quay at rest); none
     /// by default.
     pub initial_twist: Option<TwistPrior>,
+    /// What is known of scan 0's acceleration `(surge m/s², sway m/s², yaw rad/s²)` under
+    /// white noise on jerk, if anything; none by default, and an error under white noise on
+    /// acceleration (whose state has none).
+    pub initial_acceleration: Option<TwistPrior>,
     /// How much of a registration's error is its scans', shared with their other
     /// registrations ([`scan_errors`](ScanErrors)); estimated from the run's loops by default.
     pub scan_errors: ScanErrors,
 }
 
-/// A Gaussian on scan 0's twist `(surge m/s, sway m/s, yaw rad/s)`.
+/// A Gaussian on scan 0's twist `(surge m/s, sway m/s, yaw rad/s)` (or its acceleration).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TwistPrior {
     pub mean: Vector3<f64>,
@@ -155,6 +187,7 @@ impl Default for SmootherOptions {
     fn default() -> Self {
         Self {
             geometry: Geometry::Se2,
+            motion_prior: MotionPrior::WhiteAcceleration,
             process_noise: ProcessNoise::Estimate {
                 max_iterations: 50,
                 tolerance: 1e-3,
@@ -164,6 +197,7 @@ impl Default for SmootherOptions {
             max_iterations: 100,
             tolerance: 1e-4,
             initial_twist: None,
+            initial_acceleration: None,
             scan_errors: ScanErrors::Estimate,
         }
     }
@@ -278,9 +312,11 @@ pub fn smooth(
         geometry: options.geometry,
         times_s,
         regs: &own,
+        prior: options.motion_prior,
         qc: [1.0; 3],
         huber_k: options.huber_k,
-        twist0: twist0(options)?,
+        twist0: gaussian("initial_twist", options.initial_twist)?,
+        accel0: gaussian("initial_acceleration", options.initial_acceleration)?,
         scan_errors: errors.as_deref(),
     };
     let (em_iterations, last) = match options.process_noise {
@@ -297,7 +333,7 @@ pub fn smooth(
                 options,
                 &model,
                 init.clone(),
-                noise::starts(options.geometry, times_s, &regs),
+                noise::starts(options.geometry, options.motion_prior, times_s, &regs),
                 &noise::EmStop {
                     max_rounds: max_iterations,
                     tolerance,
@@ -319,7 +355,13 @@ pub fn smooth(
                 None => noise::batch_with_marginals(&model, init, options)?,
             };
             let m = &solved.marginals;
-            (outputs(&model, &solved.est, &m.own, &m.cross), solved.stop)
+            let pose_twist = |all: &[batch::StateMarginal]| -> Vec<StateCovariance> {
+                all.iter()
+                    .map(|c| c.fixed_view::<6, 6>(0, 0).into_owned())
+                    .collect()
+            };
+            let (own, cross) = (pose_twist(&m.own), pose_twist(&m.cross));
+            (outputs(&model, &solved.est, &own, &cross), solved.stop)
         }
         Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,
     };
@@ -359,6 +401,12 @@ fn validate_options(o: &SmootherOptions) -> Result<(), SequenceError> {
     }
     if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
         return bad("tolerance", "must be finite and positive");
+    }
+    if o.initial_acceleration.is_some() && o.motion_prior != MotionPrior::WhiteJerk {
+        return bad(
+            "initial_acceleration",
+            "only white noise on jerk has an acceleration in its state",
+        );
     }
     if let ScanErrors::Share(share) = o.scan_errors {
         if !(0.0..=MAX_SHARE).contains(&share) {
@@ -412,13 +460,16 @@ fn to_reg(index: usize, r: &SequenceRegistration, n: usize) -> Result<Reg, Seque
     })
 }
 
-/// The mean and information of the option's prior on scan 0's twist.
-fn twist0(options: &SmootherOptions) -> Result<Option<system::Gaussian3>, SequenceError> {
-    let Some(p) = options.initial_twist else {
+/// The mean and information of the option `name`'s prior `prior` on a 3-vector of scan 0.
+fn gaussian(
+    name: &'static str,
+    prior: Option<TwistPrior>,
+) -> Result<Option<system::Gaussian3>, SequenceError> {
+    let Some(p) = prior else {
         return Ok(None);
     };
     let bad = Err(SequenceError::BadOption {
-        name: "initial_twist",
+        name,
         why: "needs a finite mean and a positive-definite covariance",
     });
     if p.mean.iter().chain(p.cov.iter()).any(|v| !v.is_finite()) {
@@ -469,11 +520,7 @@ fn initial_estimates(geometry: Geometry, times_s: &[f64], regs: &[Reg]) -> Estim
         twists[k] = xi / dt;
     }
     twists[n - 1] = twists[n - 2];
-    Estimates {
-        poses,
-        twists,
-        errors: vec![Vector3::zeros(); n],
-    }
+    Estimates::new(poses, twists)
 }
 
 /// The constant body twist (times Δt) that moves the origin onto the pose `p`.

@@ -4,10 +4,10 @@
 
 use nalgebra::SMatrix;
 
-use super::batch::{self, Marginals, SparseSystem};
-use super::factors::{self, Matrix6};
+use super::batch::{self, Marginals, SparseSystem, StateMarginal};
+use super::factors;
 use super::system::{Estimates, Layout, Model, Reg};
-use super::{Geometry, SequenceError, SmootherOptions, SolveStop};
+use super::{Geometry, MotionPrior, SequenceError, SmootherOptions, SolveStop};
 
 /// Smallest `q` an axis may take, so that `Q` stays invertible when an axis does not move.
 const Q_FLOOR: f64 = 1e-12;
@@ -63,14 +63,17 @@ fn solve_with_marginals(
 /// The log-likelihood of the registrations given `qc`, by Laplace's approximation at the
 /// solution, up to a constant: `−J − ½ ln det H − ½ Σ_k ln det Q_k`, J the cost there (robust
 /// registrations' and priors'), H its Gauss–Newton Hessian and `Q_k = A_k ⊗ Qc` the priors'
-/// covariances, whose `ln det` is `2 Σ_axis ln q` plus what does not depend on `Qc`.
-fn log_evidence(qc: &[f64; 3], priors: usize, cost: f64, log_det_h: f64) -> f64 {
-    -cost - 0.5 * log_det_h - priors as f64 * qc.iter().map(|q| q.ln()).sum::<f64>()
+/// covariances, whose `ln det` is `O Σ_axis ln q` (O the state's derivatives, `order`) plus
+/// what does not depend on `Qc`.
+fn log_evidence(qc: &[f64; 3], order: usize, priors: usize, cost: f64, log_det_h: f64) -> f64 {
+    let per_prior = 0.5 * order as f64 * priors as f64;
+    -cost - 0.5 * log_det_h - per_prior * qc.iter().map(|q| q.ln()).sum::<f64>()
 }
 
 /// Where the estimation of `Qc` starts, from the data: per axis, the mean and the largest
 /// squared change of the lag-1 registrations' twists over the time between them (measurement
-/// noise and wrong registrations included). EM is a local method, and with the robust loss
+/// noise and wrong registrations included); under white noise on jerk, of their second
+/// difference over the time cubed. EM is a local method, and with the robust loss
 /// the smoother has more than one fixed point: a prior too stiff in the first round
 /// down-weights the registrations that disagree with it, and later rounds, each from the
 /// round before's solution, stay there. On the aces log (PL_ICP, `--init global --lags 3`) the
@@ -84,6 +87,7 @@ fn log_evidence(qc: &[f64; 3], priors: usize, cost: f64, log_det_h: f64) -> f64 
 /// took 7–8.)
 pub(crate) fn starts(
     geometry: Geometry,
+    prior: MotionPrior,
     times_s: &[f64],
     regs: &[Reg],
 ) -> ([f64; 3], Option<[f64; 3]>) {
@@ -97,16 +101,27 @@ pub(crate) fn starts(
     let mut sum = [0.0; 3];
     let mut largest = [0.0_f64; 3];
     let mut count = 0usize;
-    for k in 0..n.saturating_sub(2) {
-        if let (Some(a), Some(b)) = (twist[k], twist[k + 1]) {
-            let dt = 0.5 * (times_s[k + 2] - times_s[k]);
-            for axis in 0..3 {
-                let change = (b[axis] - a[axis]).powi(2) / dt;
-                sum[axis] += change;
-                largest[axis] = largest[axis].max(change);
+    let span = match prior {
+        MotionPrior::WhiteAcceleration => 2,
+        MotionPrior::WhiteJerk => 3,
+    };
+    for k in 0..n.saturating_sub(span) {
+        let changes = match (prior, twist[k], twist[k + 1], twist.get(k + 2)) {
+            (MotionPrior::WhiteAcceleration, Some(a), Some(b), _) => {
+                let dt = 0.5 * (times_s[k + 2] - times_s[k]);
+                (b - a).map(|d| d.powi(2) / dt)
             }
-            count += 1;
+            (MotionPrior::WhiteJerk, Some(a), Some(b), Some(Some(c))) => {
+                let dt = (times_s[k + 3] - times_s[k]) / 3.0;
+                (c - 2.0 * b + a).map(|d| d.powi(2) / dt.powi(3))
+            }
+            _ => continue,
+        };
+        for axis in 0..3 {
+            sum[axis] += changes[axis];
+            largest[axis] = largest[axis].max(changes[axis]);
         }
+        count += 1;
     }
     if count == 0 {
         return ([1.0; 3], None);
@@ -290,8 +305,12 @@ impl Em<'_> {
         // From the last round's solution, kept should this one fail.
         let (est, marginals, (cost, stop)) =
             solve_with_marginals(&model, self.est.clone(), sys, &self.layout, self.options)?;
-        let next = m_step(&model, &est, &marginals.own, &marginals.cross);
-        let evidence = log_evidence(&qc, n - 1, cost, marginals.log_det_h);
+        let next = match model.prior {
+            MotionPrior::WhiteAcceleration => m_step::<6, 4, 12>(&model, &est, &marginals),
+            MotionPrior::WhiteJerk => m_step::<9, 6, 18>(&model, &est, &marginals),
+        };
+        let order = model.prior.order();
+        let evidence = log_evidence(&qc, order, n - 1, cost, marginals.log_det_h);
         self.est.clone_from(&est);
         self.rounds += 1;
         let solved = Solved {
@@ -304,46 +323,55 @@ impl Em<'_> {
     }
 }
 
-/// The M-step: for each axis, `q = (1/2K) Σ_k tr(A_k⁻¹ E[e_k e_kᵀ])` over the K priors, where
-/// `e_k` is the axis' (position, velocity) residual, `A_k = [[Δt³/3, Δt²/2], [Δt²/2, Δt]]` and
-/// `E[e eᵀ] = ē ēᵀ + F Σ Fᵀ` with F the residual's Jacobian and Σ the joint marginal of scans k
-/// and k+1.
-fn m_step(model: &Model<'_>, est: &Estimates, own: &[Matrix6], cross: &[Matrix6]) -> [f64; 3] {
+/// The M-step: for each axis, `q = (1/OK) Σ_k tr(A_k⁻¹ E[e_k e_kᵀ])` over the K priors, where
+/// `e_k` is the axis' residual (position and velocity, and acceleration under white noise on
+/// jerk: O = `R/3` of them), `A_k` its covariance per unit `q` ([`factors::a_inverse`]) and
+/// `E[e eᵀ] = ē ēᵀ + F Σ Fᵀ` with F the residual's Jacobian (`B` blocks, `J = 2R` columns) and
+/// Σ the joint marginal of scans k and k+1.
+fn m_step<const R: usize, const B: usize, const J: usize>(
+    model: &Model<'_>,
+    est: &Estimates,
+    marginals: &Marginals,
+) -> [f64; 3] {
+    let order = R / 3;
+    let (own, cross) = (&marginals.own, &marginals.cross);
     let n = est.poses.len();
+    let part = |m: &StateMarginal| m.fixed_view::<R, R>(0, 0).into_owned();
     let mut sum = [0.0; 3];
     for k in 0..n - 1 {
-        let lin = factors::prior(
-            model.geometry,
-            &est.poses[k],
-            &est.twists[k],
-            &est.poses[k + 1],
-            &est.twists[k + 1],
-            model.dt_s(k),
-        );
-        let mut f = SMatrix::<f64, 6, 12>::zeros();
+        let lin = model.linearise_prior::<R, B>(est, k);
+        let mut f = SMatrix::<f64, R, J>::zeros();
         for (i, j) in lin.jacobians.iter().enumerate() {
-            f.fixed_view_mut::<6, 3>(0, 3 * i).copy_from(j);
+            f.fixed_view_mut::<R, 3>(0, 3 * i).copy_from(j);
         }
-        let mut joint = SMatrix::<f64, 12, 12>::zeros();
-        joint.fixed_view_mut::<6, 6>(0, 0).copy_from(&own[k]);
-        joint.fixed_view_mut::<6, 6>(0, 6).copy_from(&cross[k]);
+        let mut joint = SMatrix::<f64, J, J>::zeros();
+        joint.fixed_view_mut::<R, R>(0, 0).copy_from(&part(&own[k]));
         joint
-            .fixed_view_mut::<6, 6>(6, 0)
-            .copy_from(&cross[k].transpose());
-        joint.fixed_view_mut::<6, 6>(6, 6).copy_from(&own[k + 1]);
+            .fixed_view_mut::<R, R>(0, R)
+            .copy_from(&part(&cross[k]));
+        joint
+            .fixed_view_mut::<R, R>(R, 0)
+            .copy_from(&part(&cross[k]).transpose());
+        joint
+            .fixed_view_mut::<R, R>(R, R)
+            .copy_from(&part(&own[k + 1]));
         let e = lin.residual;
         let m = e * e.transpose() + f * joint * f.transpose();
         let dt = model.dt_s(k);
         for (axis, s) in sum.iter_mut().enumerate() {
-            let (pp, pv, vv) = (
-                m[(axis, axis)],
-                m[(axis, axis + 3)],
-                m[(axis + 3, axis + 3)],
-            );
-            *s += 12.0 / dt.powi(3) * pp - 12.0 / dt.powi(2) * pv + 4.0 / dt * vv;
+            // The trace over the upper triangle, an off-diagonal entry counted twice.
+            let mut trace = 0.0;
+            for i in 0..order {
+                for j in i..order {
+                    let scale = if i == j { 1.0 } else { 2.0 };
+                    trace += factors::a_inverse(order, dt, i, j, scale)
+                        * m[(axis + 3 * i, axis + 3 * j)];
+                }
+            }
+            *s += trace;
         }
     }
-    sum.map(|s| (s / (2.0 * (n - 1) as f64)).max(Q_FLOOR))
+    sum.map(|s| (s / (order as f64 * (n - 1) as f64)).max(Q_FLOOR))
 }
 
 #[cfg(test)]

@@ -4,8 +4,8 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use super::factors::{self, Matrix6};
-use super::{Geometry, SolveStop};
+use super::factors;
+use super::{Geometry, MotionPrior, SolveStop};
 
 /// A 3-vector's mean and information.
 pub(crate) type Gaussian3 = (Vector3<f64>, Matrix3<f64>);
@@ -23,23 +23,37 @@ pub(crate) struct Reg {
     pub cov: Matrix3<f64>,
 }
 
-/// Every scan's pose `(x m, y m, θ rad)`, body twist `(surge m/s, sway m/s, yaw rad/s)` and
-/// error `(x m, y m, θ rad)`: where the scan's own errors put it beside its pose, as every
-/// registration that uses the scan sees it (zero when the model has no scan errors, see
-/// [`super::ScanErrors`]).
+/// Every scan's pose `(x m, y m, θ rad)`, body twist `(surge m/s, sway m/s, yaw rad/s)`, body
+/// acceleration `(surge m/s², sway m/s², yaw rad/s²)` (zero under white noise on acceleration,
+/// whose state has none) and error `(x m, y m, θ rad)`: where the scan's own errors put it
+/// beside its pose, as every registration that uses the scan sees it (zero when the model has
+/// no scan errors, see [`super::ScanErrors`]).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Estimates {
     pub poses: Vec<Vector3<f64>>,
     pub twists: Vec<Vector3<f64>>,
+    pub accels: Vec<Vector3<f64>>,
     pub errors: Vec<Vector3<f64>>,
 }
 
 impl Estimates {
-    /// The 3-vector of `kind` ([`POSE`], [`TWIST`] or [`ERROR`]) of `state`.
+    /// `poses` and `twists`, with zero accelerations and errors.
+    pub fn new(poses: Vec<Vector3<f64>>, twists: Vec<Vector3<f64>>) -> Self {
+        let zeros = vec![Vector3::zeros(); poses.len()];
+        Self {
+            poses,
+            twists,
+            accels: zeros.clone(),
+            errors: zeros,
+        }
+    }
+
+    /// The 3-vector of `kind` ([`POSE`], [`TWIST`], [`ACCEL`] or [`ERROR`]) of `state`.
     pub fn get(&self, kind: usize, state: usize) -> &Vector3<f64> {
         match kind {
             POSE => &self.poses[state],
             TWIST => &self.twists[state],
+            ACCEL => &self.accels[state],
             _ => &self.errors[state],
         }
     }
@@ -48,6 +62,7 @@ impl Estimates {
         match kind {
             POSE => &mut self.poses[state],
             TWIST => &mut self.twists[state],
+            ACCEL => &mut self.accels[state],
             _ => &mut self.errors[state],
         }
     }
@@ -57,8 +72,18 @@ impl Estimates {
         Self {
             poses: self.poses[range.clone()].to_vec(),
             twists: self.twists[range.clone()].to_vec(),
+            accels: self.accels[range.clone()].to_vec(),
             errors: self.errors[range].to_vec(),
         }
+    }
+
+    /// Scan `state`'s first `order` derivatives: pose, twist and, for 3, acceleration.
+    fn derivatives(&self, state: usize, order: usize) -> [Vector3<f64>; 3] {
+        let mut out = [self.poses[state], self.twists[state], Vector3::zeros()];
+        if order > 2 {
+            out[ACCEL] = self.accels[state];
+        }
+        out
     }
 
     /// `self − other` for the 3-vector of `kind` of `state` in `self` and `at` in `other`
@@ -84,21 +109,23 @@ impl Estimates {
 pub(crate) const POSE: usize = 0;
 /// A state's twist.
 pub(crate) const TWIST: usize = 1;
+/// A state's acceleration.
+pub(crate) const ACCEL: usize = 2;
 /// A state's error.
-pub(crate) const ERROR: usize = 2;
+pub(crate) const ERROR: usize = 3;
 
 /// The free 3-vectors (blocks) of the states `first..first + len`: where the model has them an
-/// error, then a pose and a twist each, state by state; scan 0's pose, which fixes the frame
-/// (the identity), is not free.
+/// error, then a pose, a twist and, where the model has them, an acceleration each, state by
+/// state; scan 0's pose, which fixes the frame (the identity), is not free.
 #[derive(Clone, Debug)]
 pub(crate) struct Layout {
     first: usize,
-    blocks_of: Vec<[Option<usize>; 3]>,
+    blocks_of: Vec<[Option<usize>; 4]>,
     blocks: usize,
 }
 
 impl Layout {
-    pub fn new(first: usize, len: usize, errors: bool) -> Self {
+    pub fn new(first: usize, len: usize, errors: bool, accels: bool) -> Self {
         let mut blocks = 0;
         let mut next = |free: bool| {
             free.then(|| {
@@ -108,12 +135,14 @@ impl Layout {
         };
         // Error first: a registration ties a scan's pose and error to those of a scan up to L
         // later, so the band of H spans 3L + 1 blocks this way against 3L + 2 with the error
-        // last (35 → 32 scalars at L = 3; the marginals cost the band's width squared).
+        // last (35 → 32 scalars at L = 3; the marginals cost the band's width squared; an
+        // acceleration adds a block per scan: 41 scalars).
         let blocks_of = (first..first + len)
             .map(|state| {
                 let error = next(errors);
                 let pose = next(state != 0);
-                [pose, next(true), error]
+                let twist = next(true);
+                [pose, twist, next(accels), error]
             })
             .collect();
         Self {
@@ -132,13 +161,13 @@ impl Layout {
         state >= self.first && state < self.first + self.blocks_of.len()
     }
 
-    /// The blocks of `state` in `[pose, twist, error]` order (`None` where not free or not in
-    /// the layout).
-    pub fn state_blocks(&self, state: usize) -> [Option<usize>; 3] {
+    /// The blocks of `state` in `[pose, twist, acceleration, error]` order (`None` where not
+    /// free or not in the layout).
+    pub fn state_blocks(&self, state: usize) -> [Option<usize>; 4] {
         if self.contains(state) {
             self.blocks_of[state - self.first]
         } else {
-            [None; 3]
+            [None; 4]
         }
     }
 
@@ -150,6 +179,12 @@ impl Layout {
     /// The block of `state`'s twist, if in the layout.
     pub fn twist(&self, state: usize) -> Option<usize> {
         self.state_blocks(state)[TWIST]
+    }
+
+    /// The block of `state`'s acceleration, if the model has them and the state is in the
+    /// layout.
+    pub fn accel(&self, state: usize) -> Option<usize> {
+        self.state_blocks(state)[ACCEL]
     }
 
     /// The block of `state`'s error, if the model has them and the state is in the layout.
@@ -181,6 +216,7 @@ impl Layout {
         let states = self.states();
         to.poses[states.clone()].copy_from_slice(&from.poses[states.clone()]);
         to.twists[states.clone()].copy_from_slice(&from.twists[states.clone()]);
+        to.accels[states.clone()].copy_from_slice(&from.accels[states.clone()]);
         to.errors[states.clone()].copy_from_slice(&from.errors[states]);
     }
 }
@@ -286,16 +322,20 @@ fn add_gaussian<S: Sink>(
     0.5 * r.dot(&(info * r))
 }
 
-/// The factors of a run: its timestamps, registrations, process noise and robust threshold.
+/// The factors of a run: its timestamps, registrations, motion prior and its process noise,
+/// and robust threshold.
 #[derive(Clone, Debug)]
 pub(crate) struct Model<'a> {
     pub geometry: Geometry,
     pub times_s: &'a [f64],
     pub regs: &'a [Reg],
+    pub prior: MotionPrior,
     pub qc: [f64; 3],
     pub huber_k: f64,
     /// Scan 0's twist: mean and information, if known.
     pub twist0: Option<Gaussian3>,
+    /// Scan 0's acceleration (white noise on jerk only): mean and information, if known.
+    pub accel0: Option<Gaussian3>,
     /// The information of each scan's error, zero-mean (world frame), where the model has
     /// scan errors; the registrations' `info` is then that of their own, independent part
     /// (see [`super::ScanErrors`]).
@@ -305,15 +345,16 @@ pub(crate) struct Model<'a> {
 impl Model<'_> {
     /// The layout of the states `first..first + len` under this model.
     pub fn layout(&self, first: usize, len: usize) -> Layout {
-        Layout::new(first, len, self.scan_errors.is_some())
+        Layout::new(
+            first,
+            len,
+            self.scan_errors.is_some(),
+            self.prior == MotionPrior::WhiteJerk,
+        )
     }
 
     pub fn dt_s(&self, k: usize) -> f64 {
         self.times_s[k + 1] - self.times_s[k]
-    }
-
-    pub fn prior_info(&self, k: usize) -> Matrix6 {
-        factors::prior_information(&self.qc, self.dt_s(k))
     }
 
     /// Linearises the prior between `k` and `k + 1` into `sink`; returns its cost `½ rᵀWr`.
@@ -324,31 +365,54 @@ impl Model<'_> {
         k: usize,
         sink: &mut S,
     ) -> f64 {
-        let lin = factors::prior(
-            self.geometry,
-            &est.poses[k],
-            &est.twists[k],
-            &est.poses[k + 1],
-            &est.twists[k + 1],
-            self.dt_s(k),
-        );
-        let info = self.prior_info(k);
-        let blocks = [
-            (layout.pose(k), lin.jacobians[0]),
-            (layout.twist(k), lin.jacobians[1]),
-            (layout.pose(k + 1), lin.jacobians[2]),
-            (layout.twist(k + 1), lin.jacobians[3]),
-        ];
+        match self.prior {
+            MotionPrior::WhiteAcceleration => self.add_prior_of::<6, 4, S>(est, layout, k, sink),
+            MotionPrior::WhiteJerk => self.add_prior_of::<9, 6, S>(est, layout, k, sink),
+        }
+    }
+
+    /// The prior between `k` and `k + 1` linearised at `est`, for a state of `R/3`
+    /// derivatives ([`factors::prior`]).
+    pub fn linearise_prior<const R: usize, const B: usize>(
+        &self,
+        est: &Estimates,
+        k: usize,
+    ) -> factors::PriorLinearised<R, B> {
+        let order = R / 3;
+        let (at_k, at_k1) = (est.derivatives(k, order), est.derivatives(k + 1, order));
+        factors::prior(self.geometry, &at_k[..order], &at_k1[..order], self.dt_s(k))
+    }
+
+    /// [`Self::add_prior`] for a state of `R/3` derivatives and `B = 2R/3` blocks.
+    fn add_prior_of<const R: usize, const B: usize, S: Sink>(
+        &self,
+        est: &Estimates,
+        layout: &Layout,
+        k: usize,
+        sink: &mut S,
+    ) -> f64 {
+        let order = R / 3;
+        let lin = self.linearise_prior::<R, B>(est, k);
+        let info = factors::prior_information::<R>(&self.qc, self.dt_s(k));
+        let blocks: [_; B] = std::array::from_fn(|b| {
+            let (state, kind) = (k + b / order, b % order);
+            (layout.state_blocks(state)[kind], lin.jacobians[b])
+        });
         accumulate(sink, &blocks, &lin.residual, &info);
         0.5 * lin.residual.dot(&(info * lin.residual))
     }
 
-    /// Linearises the prior on scan 0's twist, if any, into `sink`; returns its cost.
-    pub fn add_twist0<S: Sink>(&self, est: &Estimates, layout: &Layout, sink: &mut S) -> f64 {
-        let Some((mean, info)) = self.twist0 else {
-            return 0.0;
-        };
-        add_gaussian(sink, layout.twist(0), &(est.twists[0] - mean), &info)
+    /// Linearises the priors on scan 0's twist and acceleration, if any, into `sink`; returns
+    /// their cost.
+    pub fn add_initial<S: Sink>(&self, est: &Estimates, layout: &Layout, sink: &mut S) -> f64 {
+        let mut cost = 0.0;
+        if let Some((mean, info)) = self.twist0 {
+            cost += add_gaussian(sink, layout.twist(0), &(est.twists[0] - mean), &info);
+        }
+        if let Some((mean, info)) = self.accel0 {
+            cost += add_gaussian(sink, layout.accel(0), &(est.accels[0] - mean), &info);
+        }
+        cost
     }
 
     /// Linearises the zero-mean prior on scan `k`'s error, if the model has scan errors, into
@@ -404,17 +468,13 @@ mod tests {
     use super::*;
 
     fn states(n: usize) -> Estimates {
-        Estimates {
-            poses: vec![Vector3::zeros(); n],
-            twists: vec![Vector3::zeros(); n],
-            errors: vec![Vector3::zeros(); n],
-        }
+        Estimates::new(vec![Vector3::zeros(); n], vec![Vector3::zeros(); n])
     }
 
     #[test]
     fn a_step_is_halved_until_the_cost_does_not_rise_and_refused_when_it_always_does() {
         // One free twist (scan 0's pose fixes the frame): cost (u − 1)² along surge.
-        let layout = Layout::new(0, 1, false);
+        let layout = Layout::new(0, 1, false, false);
         let cost = |e: &Estimates| (e.twists[0].x - 1.0).powi(2);
         let (mut est, mut trial) = (states(1), states(1));
         // From u = 0 (cost 1) a step to u = 6 overshoots (25), so does u = 3 (4); halved

@@ -3,6 +3,7 @@
 //! against the batch one at the last scan, `Qc` recovered from motion drawn from the prior
 //! itself, and bad input refused with typed errors.
 
+mod jerk;
 mod scan_errors;
 mod sim;
 

@@ -2,7 +2,8 @@
 //! linear-Gaussian case.
 
 use icp_core::sequence::{
-    Geometry, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed, SmootherOptions, TwistPrior,
+    Geometry, MotionPrior, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed,
+    SmootherOptions, TwistPrior,
 };
 use nalgebra::{DMatrix, DVector, Isometry2, Matrix3, SMatrix, Vector2, Vector3};
 use rand::{Rng, SeedableRng};
@@ -10,6 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 pub type Matrix6 = SMatrix<f64, 6, 6>;
+pub type Matrix9 = SMatrix<f64, 9, 9>;
 
 /// `Q(Δt) = [[Δt³/3, Δt²/2], [Δt²/2, Δt]] ⊗ diag(qc)`, ordered `[position(3), velocity(3)]`.
 pub fn q_matrix(qc: &[f64; 3], dt: f64) -> Matrix6 {
@@ -19,6 +21,26 @@ pub fn q_matrix(qc: &[f64; 3], dt: f64) -> Matrix6 {
         q[(a, a + 3)] = dt.powi(2) / 2.0 * qc[a];
         q[(a + 3, a)] = dt.powi(2) / 2.0 * qc[a];
         q[(a + 3, a + 3)] = dt * qc[a];
+    }
+    q
+}
+
+/// `Q(Δt) = A ⊗ diag(qc)` of white noise on jerk, ordered `[position(3), velocity(3),
+/// acceleration(3)]`: `A = [[Δt⁵/20, Δt⁴/8, Δt³/6], [Δt⁴/8, Δt³/3, Δt²/2], [Δt³/6, Δt²/2, Δt]]`
+/// (the integral over the step of the jerk's effect on each derivative, outer product).
+pub fn q_matrix_jerk(qc: &[f64; 3], dt: f64) -> Matrix9 {
+    let a = [
+        [dt.powi(5) / 20.0, dt.powi(4) / 8.0, dt.powi(3) / 6.0],
+        [dt.powi(4) / 8.0, dt.powi(3) / 3.0, dt.powi(2) / 2.0],
+        [dt.powi(3) / 6.0, dt.powi(2) / 2.0, dt],
+    ];
+    let mut q = Matrix9::zeros();
+    for axis in 0..3 {
+        for i in 0..3 {
+            for j in 0..3 {
+                q[(axis + 3 * i, axis + 3 * j)] = a[i][j] * qc[axis];
+            }
+        }
     }
     q
 }
@@ -57,6 +79,19 @@ pub fn simulate(seed: u64, n: usize, lags: usize, qc: [f64; 3], linear: bool) ->
     simulate_shared(seed, n, lags, qc, linear, 0.0)
 }
 
+/// [`simulate`] with motion drawn from `prior` (white noise on jerk: the acceleration from
+/// zero, the body-frame twist and pose moved by its Taylor expansion plus the noise).
+pub fn simulate_prior(
+    seed: u64,
+    n: usize,
+    lags: usize,
+    qc: [f64; 3],
+    linear: bool,
+    prior: MotionPrior,
+) -> Run {
+    simulate_with(seed, n, lags, qc, linear, 0.0, prior)
+}
+
 /// [`simulate`], with a share `share` of each registration's covariance `Σ` its scans' errors:
 /// the registration `a → b` is drawn between the poses `T_a + e_a` and `T_b + e_b` with its own
 /// noise of covariance `(1 − share) Σ`, and each scan's error `e_k` (world frame) from
@@ -72,6 +107,26 @@ pub fn simulate_shared(
     linear: bool,
     share: f64,
 ) -> Run {
+    simulate_with(
+        seed,
+        n,
+        lags,
+        qc,
+        linear,
+        share,
+        MotionPrior::WhiteAcceleration,
+    )
+}
+
+fn simulate_with(
+    seed: u64,
+    n: usize,
+    lags: usize,
+    qc: [f64; 3],
+    linear: bool,
+    share: f64,
+    prior: MotionPrior,
+) -> Run {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut times_s = vec![0.0];
     for _ in 1..n {
@@ -79,13 +134,25 @@ pub fn simulate_shared(
         times_s.push(last + rng.random_range(0.8..1.2));
     }
     let mut twists = vec![Vector3::new(2.0, 0.1, 0.02)];
+    let mut accel = Vector3::zeros();
     let mut params = vec![Vector3::zeros()]; // linear: (x, y, θ) as a vector
     let mut poses = vec![Isometry2::identity()];
     for k in 0..n - 1 {
         let dt = times_s[k + 1] - times_s[k];
-        let w = gaussian(&mut rng, &q_matrix(&qc, dt));
-        let xi = twists[k] * dt + w.fixed_rows::<3>(0);
-        twists.push(twists[k] + w.fixed_rows::<3>(3));
+        let xi = match prior {
+            MotionPrior::WhiteAcceleration => {
+                let w = gaussian(&mut rng, &q_matrix(&qc, dt));
+                twists.push(twists[k] + w.fixed_rows::<3>(3));
+                twists[k] * dt + w.fixed_rows::<3>(0)
+            }
+            MotionPrior::WhiteJerk => {
+                let w = gaussian(&mut rng, &q_matrix_jerk(&qc, dt));
+                twists.push(twists[k] + accel * dt + w.fixed_rows::<3>(3));
+                let xi = twists[k] * dt + accel * (dt * dt / 2.0) + w.fixed_rows::<3>(0);
+                accel += w.fixed_rows::<3>(6);
+                xi
+            }
+        };
         params.push(params[k] + xi);
         // SE(2): T_k+1 = T_k Exp(ξ).
         let phi = xi.z;
@@ -205,30 +272,49 @@ pub type Oracle = (Vec<DVector<f64>>, Vec<DMatrix<f64>>, Vec<Matrix3<f64>>);
 /// Returns per scan the smoothed `[p; v]` mean and covariance, and per step the covariance of
 /// `p_k − p_k+1`.
 pub fn kalman_rts(run: &Run, lags: usize, qc: &[f64; 3], v0: &TwistPrior) -> Oracle {
+    kalman_rts_of(run, lags, qc, &[*v0])
+}
+
+/// [`kalman_rts`] for white noise on acceleration (`initial = [v_0]`) or on jerk (`initial =
+/// [v_0, a_0]`: `s_k = [p_k, v_k, a_k, p_k−1, …]`, `p_k+1 = p_k + Δt v_k + Δt²/2 a_k + w_p`,
+/// `v_k+1 = v_k + Δt a_k + w_v`, `a_k+1 = a_k + w_a`, `Q` of [`q_matrix_jerk`]).
+pub fn kalman_rts_of(run: &Run, lags: usize, qc: &[f64; 3], initial: &[TwistPrior]) -> Oracle {
     let n = run.times_s.len();
-    let dim = 6 + 3 * lags;
-    let slot = |lag: usize| if lag == 0 { 0 } else { 6 + 3 * (lag - 1) };
+    let base = 3 + 3 * initial.len();
+    let dim = base + 3 * lags;
+    let slot = |lag: usize| if lag == 0 { 0 } else { base + 3 * (lag - 1) };
     let mut m = DVector::zeros(dim);
     let mut p = DMatrix::zeros(dim, dim);
-    m.rows_mut(3, 3).copy_from(&v0.mean);
-    p.view_mut((3, 3), (3, 3)).copy_from(&v0.cov);
+    for (d, prior) in initial.iter().enumerate() {
+        m.rows_mut(3 + 3 * d, 3).copy_from(&prior.mean);
+        p.view_mut((3 + 3 * d, 3 + 3 * d), (3, 3))
+            .copy_from(&prior.cov);
+    }
     let (mut mf, mut pf, mut mp, mut pp, mut fs) = (vec![], vec![], vec![], vec![], vec![]);
     for k in 0..n {
         if k > 0 {
             let dt = run.times_s[k] - run.times_s[k - 1];
             let mut f = DMatrix::zeros(dim, dim);
-            for i in 0..6 {
+            for i in 0..base {
                 f[(i, i)] = 1.0;
             }
             for i in 0..3 {
                 f[(i, i + 3)] = dt;
+                if base == 9 {
+                    f[(i, i + 6)] = dt * dt / 2.0;
+                    f[(i + 3, i + 6)] = dt;
+                }
                 f[(slot(1) + i, i)] = 1.0;
                 for l in 2..=lags {
                     f[(slot(l) + i, slot(l - 1) + i)] = 1.0;
                 }
             }
             let mut q = DMatrix::zeros(dim, dim);
-            q.view_mut((0, 0), (6, 6)).copy_from(&q_matrix(qc, dt));
+            if base == 9 {
+                q.view_mut((0, 0), (9, 9)).copy_from(&q_matrix_jerk(qc, dt));
+            } else {
+                q.view_mut((0, 0), (6, 6)).copy_from(&q_matrix(qc, dt));
+            }
             m = &f * &m;
             p = &f * &p * f.transpose() + q;
             mp.push(m.clone());

@@ -1,0 +1,163 @@
+//! The smoother under white noise on jerk (`MotionPrior::WhiteJerk`) against independent
+//! truth: the dense Kalman/RTS smoother of the linear-Gaussian case on a state with the
+//! acceleration, the causal mode against the batch one at the last scan, and `Qc` recovered
+//! from motion drawn from that prior itself.
+
+use icp_core::sequence::{
+    smooth, Mode, MotionPrior, ProcessNoise, SequenceError, SmootherOptions, TwistPrior,
+};
+use nalgebra::{Matrix3, Vector3};
+
+use super::sim::{
+    assert_last_scans_equal, kalman_rts_of, linear_options, params, simulate, simulate_prior, Run,
+};
+
+/// Scan 0's twist and acceleration as the linear runs' oracle takes them.
+fn initial() -> [TwistPrior; 2] {
+    [
+        TwistPrior {
+            mean: Vector3::new(1.5, 0.0, 0.0),
+            cov: Matrix3::from_diagonal(&Vector3::new(1.0, 0.5, 0.01)),
+        },
+        TwistPrior {
+            mean: Vector3::zeros(),
+            cov: Matrix3::from_diagonal(&Vector3::new(0.04, 0.01, 1e-4)),
+        },
+    ]
+}
+
+fn jerk_linear_options(qc: [f64; 3]) -> SmootherOptions {
+    let [v0, a0] = initial();
+    SmootherOptions {
+        motion_prior: MotionPrior::WhiteJerk,
+        initial_acceleration: Some(a0),
+        ..linear_options(qc, v0)
+    }
+}
+
+#[test]
+fn linear_gaussian_batch_under_white_noise_on_jerk_equals_kalman_rts() {
+    let qc = [0.02, 0.01, 1e-4];
+    let lags = 3;
+    let run = simulate_prior(35_101, 60, lags, qc, true, MotionPrior::WhiteJerk);
+    let out = smooth(
+        &run.times_s,
+        &run.regs,
+        Mode::Batch,
+        &jerk_linear_options(qc),
+    )
+    .unwrap();
+    let (means, covs, steps) = kalman_rts_of(&run, lags, &qc, &initial());
+    let mut worst: f64 = 0.0;
+    for (k, s) in out.scans.iter().enumerate() {
+        for i in 0..3 {
+            worst = worst.max((s.pose[i] - means[k][i]).abs());
+            worst = worst.max((s.twist[i] - means[k][i + 3]).abs());
+        }
+        for i in 0..6 {
+            for j in 0..6 {
+                worst = worst.max((s.cov[(i, j)] - covs[k][(i, j)]).abs());
+            }
+        }
+    }
+    for (k, s) in out.steps.iter().enumerate() {
+        let expected = Vector3::from_fn(|i, _| means[k][i] - means[k + 1][i]);
+        worst = worst.max((params(&s.t_ref_src) - expected).abs().max());
+        worst = worst.max((s.cov - steps[k]).abs().max());
+    }
+    assert!(
+        worst < 1e-9,
+        "largest difference from the Kalman/RTS smoother: {worst:e}"
+    );
+    // The same run under white noise on acceleration is another model: far from the oracle.
+    let other = smooth(
+        &run.times_s,
+        &run.regs,
+        Mode::Batch,
+        &linear_options(qc, initial()[0]),
+    )
+    .unwrap();
+    let apart = (other.scans[30].twist - out.scans[30].twist).abs().max();
+    assert!(apart > 1e-4, "{apart:e}");
+}
+
+#[test]
+fn causal_under_white_noise_on_jerk_equals_batch_at_the_last_scan() {
+    let qc = [0.02, 0.01, 1e-4];
+    let run = simulate_prior(35_102, 50, 3, qc, true, MotionPrior::WhiteJerk);
+    let opts = jerk_linear_options(qc);
+    let batch = smooth(&run.times_s, &run.regs, Mode::Batch, &opts).unwrap();
+    let causal = smooth(
+        &run.times_s,
+        &run.regs,
+        Mode::Causal { lag_scans: 0 },
+        &opts,
+    )
+    .unwrap();
+    assert_last_scans_equal(&batch, &causal);
+    let (bs, cs) = (batch.steps.last().unwrap(), causal.steps.last().unwrap());
+    assert!((params(&bs.t_ref_src) - params(&cs.t_ref_src)).abs().max() < 1e-9);
+    assert!((bs.cov - cs.cov).abs().max() < 1e-9);
+    assert!((batch.scans[10].twist - causal.scans[10].twist).abs().max() > 1e-6);
+}
+
+/// The RMS error of the smoothed surge speed against the run's truth.
+fn surge_rmse(run: &Run, options: &SmootherOptions) -> (f64, [f64; 3]) {
+    let out = smooth(&run.times_s, &run.regs, Mode::Batch, options).unwrap();
+    let se: f64 = out
+        .scans
+        .iter()
+        .zip(&run.twists)
+        .map(|(s, t)| (s.twist.x - t.x).powi(2))
+        .sum();
+    ((se / run.twists.len() as f64).sqrt(), out.qc)
+}
+
+#[test]
+fn qc_under_white_noise_on_jerk_is_recovered_from_motion_drawn_from_it() {
+    // The acceleration is a random walk, so the twist wanders as time to the power 3/2: a
+    // yaw q of 1e-9 rad²/s⁵ keeps the yaw rate within 0.52 rad/s over the 865 s (a registration
+    // at lag 3 then turns by less than π), and the surge and sway q make each step's position
+    // noise from the jerk (√(q/20) m: 2.2 and 0.7 mm) small beside the registrations' 30 mm,
+    // as at the harbour's scan rate.
+    let qc = [1e-4, 1e-5, 1e-9];
+    let run = simulate_prior(35_103, 865, 3, qc, false, MotionPrior::WhiteJerk);
+    let jerk = SmootherOptions {
+        motion_prior: MotionPrior::WhiteJerk,
+        ..SmootherOptions::default()
+    };
+    let (jerk_rmse, estimated) = surge_rmse(&run, &jerk);
+    for (a, q) in qc.iter().enumerate() {
+        let ratio = estimated[a] / q;
+        assert!(
+            (0.7..=1.3).contains(&ratio),
+            "axis {a}: estimated {} true {} (×{ratio:.3})",
+            estimated[a],
+            q
+        );
+    }
+    // On a motion whose acceleration wanders smoothly, the prior that holds it estimates the
+    // speed better than a constant velocity with its own `Qc` estimated.
+    let (velocity_rmse, _) = surge_rmse(&run, &SmootherOptions::default());
+    assert!(
+        jerk_rmse < 0.8 * velocity_rmse,
+        "white noise on jerk {jerk_rmse}, on acceleration {velocity_rmse}"
+    );
+}
+
+#[test]
+fn an_initial_acceleration_without_an_acceleration_in_the_state_is_refused() {
+    let run = simulate(35_104, 10, 2, [0.02, 0.01, 1e-4], false);
+    let bad = SmootherOptions {
+        initial_acceleration: Some(initial()[1]),
+        process_noise: ProcessNoise::Fixed([0.02, 0.01, 1e-4]),
+        ..SmootherOptions::default()
+    };
+    assert!(matches!(
+        smooth(&run.times_s, &run.regs, Mode::Batch, &bad),
+        Err(SequenceError::BadOption {
+            name: "initial_acceleration",
+            ..
+        })
+    ));
+}
