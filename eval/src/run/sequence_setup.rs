@@ -32,6 +32,7 @@ impl SequenceMode {
 /// The smoothers' motion prior on the command line (`icp_core::sequence::MotionPrior`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
+#[value(rename_all = "snake_case")]
 pub enum SequencePrior {
     /// White noise on acceleration: a constant velocity between scans (the default).
     #[default]

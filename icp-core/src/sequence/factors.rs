@@ -171,6 +171,14 @@ pub(crate) fn a_inverse(order: usize, dt_s: f64, i: usize, j: usize, scale: f64)
     scale * A_INVERSE[order - 2][i][j] / dt_s.powi((2 * order - 1 - i - j) as i32)
 }
 
+/// `A₀₀(Δt)`: the variance of the position's residual over a step per unit `q`, for a state of
+/// `order` derivatives (`Δt³/3`, `Δt⁵/20`).
+pub(crate) fn position_variance(order: usize, dt_s: f64) -> f64 {
+    let power = 2 * order - 1;
+    let factorial = (1..order).product::<usize>() as f64;
+    dt_s.powi(power as i32) / (power as f64 * factorial * factorial)
+}
+
 /// The information `Q⁻¹` of the prior over `dt_s` for a state of `R/3` derivatives:
 /// `Q = A(Δt) ⊗ Qc`, `Qc = diag(qc)`, so `Q⁻¹ = A(Δt)⁻¹ ⊗ Qc⁻¹` ([`a_inverse`]).
 pub(crate) fn prior_information<const R: usize>(qc: &[f64; 3], dt_s: f64) -> SMatrix<f64, R, R> {
@@ -345,7 +353,9 @@ mod tests {
                 let inv = nalgebra::DMatrix::from_fn(order, order, |i, j| {
                     a_inverse(order, dt, i, j, 1.0)
                 });
-                let product = a(order, dt) * inv;
+                let a = a(order, dt);
+                assert!((position_variance(order, dt) / a[(0, 0)] - 1.0).abs() < 1e-12);
+                let product = a * inv;
                 let off = (product - nalgebra::DMatrix::identity(order, order))
                     .abs()
                     .max();
