@@ -4,13 +4,14 @@
 //! registrations that use the scan (the harbours' loops say 0.85–0.95: the smoother then
 //! carries a scan error state per scan), a vessel at 1.2 m/s turning slowly. Batch with `Qc`
 //! and the share estimated (what `--sequence batch` runs), batch with both given (one solve and
-//! its marginals), and causal with both given.
+//! its marginals), and causal with both given; each under white noise on acceleration (the
+//! default) and on jerk (`--motion-prior white_jerk`: an acceleration state per scan).
 //!
 //!   cargo bench -p icp-core --bench sequence
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use icp_core::sequence::{
-    smooth, Mode, ProcessNoise, ScanErrors, SequenceRegistration, SmootherOptions,
+    smooth, Mode, MotionPrior, ProcessNoise, ScanErrors, SequenceRegistration, SmootherOptions,
 };
 use nalgebra::{Isometry2, Matrix3, Vector2};
 use rand::SeedableRng;
@@ -77,23 +78,32 @@ fn run() -> (Vec<f64>, Vec<SequenceRegistration>) {
 
 fn bench(c: &mut Criterion) {
     let (times, regs) = run();
-    let estimated = smooth(&times, &regs, Mode::Batch, &SmootherOptions::default()).unwrap();
-    let fixed = SmootherOptions {
-        process_noise: ProcessNoise::Fixed(estimated.qc),
-        scan_errors: ScanErrors::Share(estimated.scan_share.share),
-        ..SmootherOptions::default()
-    };
     let mut group = c.benchmark_group("sequence/865_scans_lags_3");
     group.sample_size(10);
-    group.bench_function("batch_qc_estimated", |b| {
-        b.iter(|| smooth(&times, &regs, Mode::Batch, &SmootherOptions::default()).unwrap())
-    });
-    group.bench_function("batch_qc_given", |b| {
-        b.iter(|| smooth(&times, &regs, Mode::Batch, &fixed).unwrap())
-    });
-    group.bench_function("causal_qc_given", |b| {
-        b.iter(|| smooth(&times, &regs, Mode::Causal { lag_scans: 0 }, &fixed).unwrap())
-    });
+    for (name, motion_prior) in [
+        ("", MotionPrior::WhiteAcceleration),
+        ("_white_jerk", MotionPrior::WhiteJerk),
+    ] {
+        let estimate = SmootherOptions {
+            motion_prior,
+            ..SmootherOptions::default()
+        };
+        let estimated = smooth(&times, &regs, Mode::Batch, &estimate).unwrap();
+        let fixed = SmootherOptions {
+            process_noise: ProcessNoise::Fixed(estimated.qc),
+            scan_errors: ScanErrors::Share(estimated.scan_share.share),
+            ..estimate
+        };
+        group.bench_function(format!("batch_qc_estimated{name}"), |b| {
+            b.iter(|| smooth(&times, &regs, Mode::Batch, &estimate).unwrap())
+        });
+        group.bench_function(format!("batch_qc_given{name}"), |b| {
+            b.iter(|| smooth(&times, &regs, Mode::Batch, &fixed).unwrap())
+        });
+        group.bench_function(format!("causal_qc_given{name}"), |b| {
+            b.iter(|| smooth(&times, &regs, Mode::Causal { lag_scans: 0 }, &fixed).unwrap())
+        });
+    }
     group.finish();
 }
 

@@ -180,6 +180,7 @@ def test_a_bad_weighting_names_the_variant_and_the_iteration(tmp_path, fn, messa
         (dict(sequence=["sideways"]), icp_bench.ConfigError,
          'option sequence: unknown mode "sideways"'),
         (dict(sequence=3), icp_bench.ConfigError, "option sequence: expected a list of modes"),
+        (dict(motion_prior="wobbly"), icp_bench.ConfigError, "option motion_prior"),
         (dict(colour="red"), icp_bench.ConfigError, 'unknown option "colour"'),
         (dict(variants=[]), icp_bench.ConfigError, "no variant to run"),
     ],
@@ -274,6 +275,27 @@ def test_sequence_gives_the_fused_figures_the_command_line_gives(tmp_path, icp_e
     again = icp_bench.run(SMALL, ["PL_ICP"], out=tmp_path / "text", plots=False, lags=2,
                           sequence="batch,causal")
     assert again["sequence"][0]["qc"] == s["sequence"][0]["qc"]
+
+
+def test_the_motion_prior_is_the_command_lines(tmp_path, icp_eval):
+    import subprocess
+
+    py = tmp_path / "py"
+    s = icp_bench.run(SMALL, ["PL_ICP"], out=py, plots=False, lags=2, sequence="batch,causal",
+                      motion_prior="white_jerk")
+    assert [q["motion_prior"] for q in s["sequence"]] == ["white_jerk"] * 2
+    cli = tmp_path / "cli"
+    subprocess.run([icp_eval, "run", "--dataset", SMALL, "--variants", "PL_ICP", "--lags", "2",
+                    "--sequence", "batch,causal", "--motion-prior", "white_jerk", "--no-plots",
+                    "--quiet", "--out", cli], check=True, capture_output=True)
+    for name in ["sequence.csv", "PL_ICP+causal.nmea"]:
+        assert (py / name).read_bytes() == (cli / name).read_bytes(), name
+    # The default prior is another model: another Qc (in other units) and other figures.
+    default = icp_bench.run(SMALL, ["PL_ICP"], out=tmp_path / "default", plots=False, lags=2,
+                            sequence="batch,causal")
+    assert default["sequence"][0]["motion_prior"] == "white_acceleration"
+    assert default["sequence"][0]["qc"] != s["sequence"][0]["qc"]
+    assert (tmp_path / "default" / "sequence.csv").read_bytes() != (py / "sequence.csv").read_bytes()
 
 
 def test_a_python_variant_enters_compare_and_the_gate(tmp_path, icp_eval):

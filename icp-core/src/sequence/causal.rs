@@ -132,7 +132,11 @@ pub(crate) fn run(
         };
         let (sys, window_stop) = window.solve(&mut est, &mut trial, options)?;
         stop = stop.max(window_stop);
-        let cov = Factor::new(&sys.h, "causal window")?.inverse();
+        let cov = Cholesky::new(sys.h.clone())
+            .ok_or(SequenceError::Factorisation {
+                what: "causal window",
+            })?
+            .inverse();
         let last = k == n - 1;
         for j in first..=k {
             if scans[j].is_none() && (j + lag_scans <= k || last) {
@@ -248,7 +252,10 @@ impl Window<'_> {
         let mut stop = SolveStop::IterationCap;
         for _ in 0..options.max_iterations {
             let (sys, cost) = self.linearise(est);
-            let delta = Factor::new(&sys.h, "causal window")?.solve(&(-&sys.g));
+            let chol = Cholesky::new(sys.h.clone()).ok_or(SequenceError::Factorisation {
+                what: "causal window",
+            })?;
+            let delta = chol.solve(&(-&sys.g));
             if delta.iter().any(|d| !d.is_finite()) {
                 return Err(SequenceError::Factorisation {
                     what: "causal step",
@@ -303,7 +310,10 @@ fn marginalise(
     let rest = dim - gone;
     let h_ss = sys.h.view((0, 0), (gone, gone)).into_owned();
     let h_rs = sys.h.view((gone, 0), (rest, gone)).into_owned();
-    let h_ss_inv_h_sr = Factor::new(&h_ss, "marginalisation")?.solve(&h_rs.transpose());
+    let chol = Cholesky::<f64, Dyn>::new(h_ss).ok_or(SequenceError::Factorisation {
+        what: "marginalisation",
+    })?;
+    let h_ss_inv_h_sr = chol.solve(&h_rs.transpose());
     let h = sys.h.view((gone, gone), (rest, rest)) - &h_rs * &h_ss_inv_h_sr;
     let g = sys.g.rows(gone, rest) - h_ss_inv_h_sr.transpose() * sys.g.rows(0, gone);
     let len = k - first;
@@ -314,82 +324,6 @@ fn marginalise(
         h: (&h + h.transpose()) * 0.5,
         g,
     })
-}
-
-/// The Cholesky factor of a window's system `H`, for its solves and inverse: H's own, or where
-/// H is not factorised, that of `D H D + εI` with `D = diag(H)^−½` (H scaled to a unit
-/// diagonal, so that its condition is not that of its scales) and ε = [`RIDGE`]. Under white
-/// noise on jerk an axis whose `q` heads for 0 (the paper harbour's sway: 9e-11 m²/s⁵, a prior
-/// weighing up to 1e11 times a registration) leaves a window's H positive definite but
-/// beyond double precision (seed 3, HD_GICP: eigenvalues 8.8 to 8.8e16, and after scaling
-/// −5.6e-16 to 6.9): the ridge gives each direction that the window's factors determine to
-/// less than ε of its scale that much information, and leaves the others as they are.
-struct Factor {
-    chol: Cholesky<f64, Dyn>,
-    /// `D`, where H was scaled.
-    d: Option<DVector<f64>>,
-}
-
-/// The ridge added to a scaled window system that is not factorised (see [`Factor`]): some
-/// 4 500 times the rounding of double precision (2.2e-16), above what rounding leaves in a
-/// Cholesky factorisation of the windows' size (48 scalars × 2.2e-16 × its largest
-/// eigenvalue, below 10: 1e-13), so that the ridged system factorises where rounding made H
-/// indefinite, and a direction it changes is one whose information is below what the sums
-/// that made H resolve.
-const RIDGE: f64 = 1e-12;
-
-impl Factor {
-    fn new(h: &DMatrix<f64>, what: &'static str) -> Result<Self, SequenceError> {
-        if let Some(chol) = Cholesky::new(h.clone()) {
-            return Ok(Self { chol, d: None });
-        }
-        let fail = SequenceError::Factorisation { what };
-        if h.diagonal().iter().any(|&v| !(v > 0.0 && v.is_finite())) {
-            return Err(fail);
-        }
-        let d = h.diagonal().map(|v| 1.0 / v.sqrt());
-        let ridged = DMatrix::from_fn(h.nrows(), h.ncols(), |i, j| {
-            h[(i, j)] * d[i] * d[j] + if i == j { RIDGE } else { 0.0 }
-        });
-        let chol = Cholesky::new(ridged).ok_or(fail)?;
-        Ok(Self { chol, d: Some(d) })
-    }
-
-    /// Scales the rows of `x` by `D`, where H was scaled.
-    fn scale<C: nalgebra::Dim>(&self, x: &mut nalgebra::OMatrix<f64, Dyn, C>)
-    where
-        nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<Dyn, C>,
-    {
-        if let Some(d) = &self.d {
-            for (mut row, &di) in x.row_iter_mut().zip(d.iter()) {
-                row *= di;
-            }
-        }
-    }
-
-    /// `H⁻¹ B`.
-    fn solve<C: nalgebra::Dim, S: nalgebra::Storage<f64, Dyn, C>>(
-        &self,
-        b: &nalgebra::Matrix<f64, Dyn, C, S>,
-    ) -> nalgebra::OMatrix<f64, Dyn, C>
-    where
-        nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<Dyn, C>,
-    {
-        let mut x = b.clone_owned();
-        self.scale(&mut x);
-        self.chol.solve_mut(&mut x);
-        self.scale(&mut x);
-        x
-    }
-
-    /// `H⁻¹`.
-    fn inverse(&self) -> DMatrix<f64> {
-        let mut inv = self.chol.inverse();
-        if let Some(d) = &self.d {
-            inv = DMatrix::from_fn(inv.nrows(), inv.ncols(), |i, j| inv[(i, j)] * d[i] * d[j]);
-        }
-        inv
-    }
 }
 
 /// The `[pose; twist]` covariance block of states `a` (rows) and `b` (columns) from the

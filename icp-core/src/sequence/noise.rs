@@ -24,9 +24,11 @@ const RELATIVE_FLOOR: f64 = 1e-6;
 /// sway on the paper harbour) sends EM's `q` towards 0; under white noise on jerk at the
 /// harbour's 0.2 s its prior then weighed 1e16 times a registration (`q` 9e-11 m²/s⁵ against
 /// this floor's 6e-8), beyond what the causal windows' dense factorisations hold in double
-/// precision (seed 3: HD_GICP+causal diverged, 137 steps more than 0.05 m/s off with σ of
-/// 3e-7). Under white noise on acceleration the paper harbour's sway `q` (2e-8 m²/s³) lies
-/// above its floor (4e-10), and so do the moving axes' everywhere.
+/// precision (seed 3, HD_GICP: a window's system, eigenvalues 8.8 to 8.8e16, was not
+/// factorised and the estimator failed; scaled to a unit diagonal with a ridge, it factorised
+/// and diverged, 137 steps more than 0.05 m/s off with σ of 3e-7). Under white noise on
+/// acceleration the paper harbour's sway `q` (2e-8 m²/s³) lies above its floor (4e-10), and
+/// so do the moving axes' everywhere.
 fn floors(model: &Model<'_>) -> [f64; 3] {
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);

@@ -9,7 +9,8 @@ use icp_core::sequence::{
 use nalgebra::{Matrix3, Vector3};
 
 use super::sim::{
-    assert_last_scans_equal, kalman_rts_of, linear_options, params, simulate, simulate_prior, Run,
+    assert_last_scans_equal, assert_last_steps_equal, kalman_rts_of, largest_difference,
+    linear_options, simulate, simulate_shared, Run,
 };
 
 /// Scan 0's twist and acceleration as the linear runs' oracle takes them.
@@ -39,7 +40,7 @@ fn jerk_linear_options(qc: [f64; 3]) -> SmootherOptions {
 fn linear_gaussian_batch_under_white_noise_on_jerk_equals_kalman_rts() {
     let qc = [0.02, 0.01, 1e-4];
     let lags = 3;
-    let run = simulate_prior(35_101, 60, lags, qc, true, MotionPrior::WhiteJerk);
+    let run = simulate_shared(35_101, 60, lags, qc, true, 0.0, MotionPrior::WhiteJerk);
     let out = smooth(
         &run.times_s,
         &run.regs,
@@ -47,24 +48,7 @@ fn linear_gaussian_batch_under_white_noise_on_jerk_equals_kalman_rts() {
         &jerk_linear_options(qc),
     )
     .unwrap();
-    let (means, covs, steps) = kalman_rts_of(&run, lags, &qc, &initial());
-    let mut worst: f64 = 0.0;
-    for (k, s) in out.scans.iter().enumerate() {
-        for i in 0..3 {
-            worst = worst.max((s.pose[i] - means[k][i]).abs());
-            worst = worst.max((s.twist[i] - means[k][i + 3]).abs());
-        }
-        for i in 0..6 {
-            for j in 0..6 {
-                worst = worst.max((s.cov[(i, j)] - covs[k][(i, j)]).abs());
-            }
-        }
-    }
-    for (k, s) in out.steps.iter().enumerate() {
-        let expected = Vector3::from_fn(|i, _| means[k][i] - means[k + 1][i]);
-        worst = worst.max((params(&s.t_ref_src) - expected).abs().max());
-        worst = worst.max((s.cov - steps[k]).abs().max());
-    }
+    let worst = largest_difference(&out, &kalman_rts_of(&run, lags, &qc, &initial()));
     assert!(
         worst < 1e-9,
         "largest difference from the Kalman/RTS smoother: {worst:e}"
@@ -84,7 +68,7 @@ fn linear_gaussian_batch_under_white_noise_on_jerk_equals_kalman_rts() {
 #[test]
 fn causal_under_white_noise_on_jerk_equals_batch_at_the_last_scan() {
     let qc = [0.02, 0.01, 1e-4];
-    let run = simulate_prior(35_102, 50, 3, qc, true, MotionPrior::WhiteJerk);
+    let run = simulate_shared(35_102, 50, 3, qc, true, 0.0, MotionPrior::WhiteJerk);
     let opts = jerk_linear_options(qc);
     let batch = smooth(&run.times_s, &run.regs, Mode::Batch, &opts).unwrap();
     let causal = smooth(
@@ -95,9 +79,7 @@ fn causal_under_white_noise_on_jerk_equals_batch_at_the_last_scan() {
     )
     .unwrap();
     assert_last_scans_equal(&batch, &causal);
-    let (bs, cs) = (batch.steps.last().unwrap(), causal.steps.last().unwrap());
-    assert!((params(&bs.t_ref_src) - params(&cs.t_ref_src)).abs().max() < 1e-9);
-    assert!((bs.cov - cs.cov).abs().max() < 1e-9);
+    assert_last_steps_equal(&batch, &causal);
     assert!((batch.scans[10].twist - causal.scans[10].twist).abs().max() > 1e-6);
 }
 
@@ -121,7 +103,7 @@ fn qc_under_white_noise_on_jerk_is_recovered_from_motion_drawn_from_it() {
     // noise from the jerk (√(q/20) m: 2.2 and 0.7 mm) small beside the registrations' 30 mm,
     // as at the harbour's scan rate.
     let qc = [1e-4, 1e-5, 1e-9];
-    let run = simulate_prior(35_103, 865, 3, qc, false, MotionPrior::WhiteJerk);
+    let run = simulate_shared(35_103, 865, 3, qc, false, 0.0, MotionPrior::WhiteJerk);
     let jerk = SmootherOptions {
         motion_prior: MotionPrior::WhiteJerk,
         ..SmootherOptions::default()

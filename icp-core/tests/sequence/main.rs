@@ -12,7 +12,10 @@ use icp_core::sequence::{
     TwistPrior,
 };
 use nalgebra::{Isometry2, Matrix3, Vector2, Vector3};
-use sim::{assert_last_scans_equal, kalman_rts, linear_options, params, simulate};
+use sim::{
+    assert_last_scans_equal, assert_last_steps_equal, kalman_rts, largest_difference,
+    linear_options, params, simulate,
+};
 
 #[test]
 fn linear_gaussian_batch_equals_kalman_rts() {
@@ -30,25 +33,7 @@ fn linear_gaussian_batch_equals_kalman_rts() {
         &linear_options(qc, v0),
     )
     .unwrap();
-    let (means, covs, steps) = kalman_rts(&run, lags, &qc, &v0);
-    let mut worst: f64 = 0.0;
-    for (k, s) in out.scans.iter().enumerate() {
-        for i in 0..3 {
-            worst = worst.max((s.pose[i] - means[k][i]).abs());
-            worst = worst.max((s.twist[i] - means[k][i + 3]).abs());
-        }
-        for i in 0..6 {
-            for j in 0..6 {
-                worst = worst.max((s.cov[(i, j)] - covs[k][(i, j)]).abs());
-            }
-        }
-    }
-    for (k, s) in out.steps.iter().enumerate() {
-        // Linear t_ref_src of k → k+1 is p_k − p_k+1.
-        let expected = Vector3::from_fn(|i, _| means[k][i] - means[k + 1][i]);
-        worst = worst.max((params(&s.t_ref_src) - expected).abs().max());
-        worst = worst.max((s.cov - steps[k]).abs().max());
-    }
+    let worst = largest_difference(&out, &kalman_rts(&run, lags, &qc, &v0));
     assert!(
         worst < 1e-9,
         "largest difference from the Kalman/RTS smoother: {worst:e}"
@@ -74,9 +59,7 @@ fn causal_equals_batch_at_the_last_scan() {
     )
     .unwrap();
     assert_last_scans_equal(&batch, &causal);
-    let (bs, cs) = (batch.steps.last().unwrap(), causal.steps.last().unwrap());
-    assert!((params(&bs.t_ref_src) - params(&cs.t_ref_src)).abs().max() < 1e-9);
-    assert!((bs.cov - cs.cov).abs().max() < 1e-9);
+    assert_last_steps_equal(&batch, &causal);
     // Earlier scans differ: the causal estimate has not seen their future.
     assert!((batch.scans[10].twist - causal.scans[10].twist).abs().max() > 1e-6);
 

@@ -4,7 +4,7 @@
 //! runs drawn from the model itself, whose share the loops must recover and whose fused σ
 //! must hold.
 
-use icp_core::sequence::{smooth, Mode, ScanErrors, SmootherOptions, TwistPrior};
+use icp_core::sequence::{smooth, Mode, MotionPrior, ScanErrors, SmootherOptions, TwistPrior};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use crate::sim::{
@@ -96,7 +96,15 @@ fn generalised_least_squares(
 fn linear_gaussian_with_scan_errors_equals_generalised_least_squares() {
     let qc = [0.02, 0.01, 1e-4];
     let share = 0.6;
-    let run = simulate_shared(35_101, 40, 3, qc, true, share);
+    let run = simulate_shared(
+        35_101,
+        40,
+        3,
+        qc,
+        true,
+        share,
+        MotionPrior::WhiteAcceleration,
+    );
     let v0 = TwistPrior {
         mean: Vector3::new(1.5, 0.0, 0.0),
         cov: Matrix3::from_diagonal(&Vector3::new(1.0, 0.5, 0.01)),
@@ -190,7 +198,15 @@ fn fused_figures(run: &Run, options: &SmootherOptions) -> (f64, f64, f64) {
 #[test]
 fn the_share_is_recovered_from_the_loops_and_the_fused_sigma_holds() {
     let qc = [0.05, 0.01, 2e-4];
-    let run = simulate_shared(35_102, 865, 3, qc, false, 0.8);
+    let run = simulate_shared(
+        35_102,
+        865,
+        3,
+        qc,
+        false,
+        0.8,
+        MotionPrior::WhiteAcceleration,
+    );
     let shared = SmootherOptions::default();
     let (anees, rmse, share) = fused_figures(&run, &shared);
     assert!((share - 0.8).abs() < 0.03, "share estimated {share}");
@@ -215,7 +231,15 @@ fn the_share_is_recovered_from_the_loops_and_the_fused_sigma_holds() {
 #[test]
 fn independent_registrations_give_them_no_share() {
     let qc = [0.05, 0.01, 2e-4];
-    let run = simulate_shared(35_103, 865, 3, qc, false, 0.0);
+    let run = simulate_shared(
+        35_103,
+        865,
+        3,
+        qc,
+        false,
+        0.0,
+        MotionPrior::WhiteAcceleration,
+    );
     let out = smooth(
         &run.times_s,
         &run.regs,

@@ -76,20 +76,15 @@ pub struct Run {
 }
 
 pub fn simulate(seed: u64, n: usize, lags: usize, qc: [f64; 3], linear: bool) -> Run {
-    simulate_shared(seed, n, lags, qc, linear, 0.0)
-}
-
-/// [`simulate`] with motion drawn from `prior` (white noise on jerk: the acceleration from
-/// zero, the body-frame twist and pose moved by its Taylor expansion plus the noise).
-pub fn simulate_prior(
-    seed: u64,
-    n: usize,
-    lags: usize,
-    qc: [f64; 3],
-    linear: bool,
-    prior: MotionPrior,
-) -> Run {
-    simulate_with(seed, n, lags, qc, linear, 0.0, prior)
+    simulate_shared(
+        seed,
+        n,
+        lags,
+        qc,
+        linear,
+        0.0,
+        MotionPrior::WhiteAcceleration,
+    )
 }
 
 /// [`simulate`], with a share `share` of each registration's covariance `Σ` its scans' errors:
@@ -98,27 +93,10 @@ pub fn simulate_prior(
 /// `S_k` = `share/2 ×` the mean covariance of the consecutive registrations that use scan k,
 /// turned into the world frame by their reference's true heading: the smoother's model
 /// (`icp_core::sequence::ScanErrors`). The errors come from their own random stream, so a
-/// share of 0 draws every other figure as before.
+/// share of 0 draws every other figure as before. The motion is drawn from `prior` (white
+/// noise on jerk: the acceleration from zero, the body-frame twist and pose moved by its
+/// Taylor expansion plus the noise).
 pub fn simulate_shared(
-    seed: u64,
-    n: usize,
-    lags: usize,
-    qc: [f64; 3],
-    linear: bool,
-    share: f64,
-) -> Run {
-    simulate_with(
-        seed,
-        n,
-        lags,
-        qc,
-        linear,
-        share,
-        MotionPrior::WhiteAcceleration,
-    )
-}
-
-fn simulate_with(
     seed: u64,
     n: usize,
     lags: usize,
@@ -397,6 +375,37 @@ pub fn params(t: &Isometry2<f64>) -> Vector3<f64> {
         t.translation.vector.y,
         t.rotation.angle(),
     )
+}
+
+/// The largest difference of a linear solution `out` from the Kalman/RTS `oracle`: each
+/// scan's pose, twist and covariance, each step's `p_k − p_k+1` and its covariance.
+pub fn largest_difference(out: &Smoothed, (means, covs, steps): &Oracle) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (k, s) in out.scans.iter().enumerate() {
+        for i in 0..3 {
+            worst = worst.max((s.pose[i] - means[k][i]).abs());
+            worst = worst.max((s.twist[i] - means[k][i + 3]).abs());
+        }
+        for i in 0..6 {
+            for j in 0..6 {
+                worst = worst.max((s.cov[(i, j)] - covs[k][(i, j)]).abs());
+            }
+        }
+    }
+    for (k, s) in out.steps.iter().enumerate() {
+        // Linear t_ref_src of k → k+1 is p_k − p_k+1.
+        let expected = Vector3::from_fn(|i, _| means[k][i] - means[k + 1][i]);
+        worst = worst.max((params(&s.t_ref_src) - expected).abs().max());
+        worst = worst.max((s.cov - steps[k]).abs().max());
+    }
+    worst
+}
+
+/// The last step's estimate of two solutions (batch and causal) agree to 1e-9.
+pub fn assert_last_steps_equal(batch: &Smoothed, causal: &Smoothed) {
+    let (b, c) = (batch.steps.last().unwrap(), causal.steps.last().unwrap());
+    assert!((params(&b.t_ref_src) - params(&c.t_ref_src)).abs().max() < 1e-9);
+    assert!((b.cov - c.cov).abs().max() < 1e-9);
 }
 
 /// The last scan's estimate of two solutions (batch and causal) agree to 1e-9.
