@@ -9,8 +9,8 @@ use icp_core::sequence::{
 use nalgebra::{Matrix3, Vector3};
 
 use super::sim::{
-    assert_last_scans_equal, assert_last_steps_equal, kalman_rts_of, largest_difference,
-    linear_options, simulate, simulate_shared, Run,
+    assert_last_scans_equal, assert_last_steps_equal, batch_and_causal, kalman_rts_of,
+    largest_difference, linear_options, simulate, simulate_shared, Run,
 };
 
 /// Scan 0's twist and acceleration as the linear runs' oracle takes them.
@@ -70,14 +70,7 @@ fn causal_under_white_noise_on_jerk_equals_batch_at_the_last_scan() {
     let qc = [0.02, 0.01, 1e-4];
     let run = simulate_shared(35_102, 50, 3, qc, true, 0.0, MotionPrior::WhiteJerk);
     let opts = jerk_linear_options(qc);
-    let batch = smooth(&run.times_s, &run.regs, Mode::Batch, &opts).unwrap();
-    let causal = smooth(
-        &run.times_s,
-        &run.regs,
-        Mode::Causal { lag_scans: 0 },
-        &opts,
-    )
-    .unwrap();
+    let (batch, causal) = batch_and_causal(&run, &opts);
     assert_last_scans_equal(&batch, &causal);
     assert_last_steps_equal(&batch, &causal);
     assert!((batch.scans[10].twist - causal.scans[10].twist).abs().max() > 1e-6);

@@ -13,8 +13,8 @@ use icp_core::sequence::{
 };
 use nalgebra::{Isometry2, Matrix3, Vector2, Vector3};
 use sim::{
-    assert_last_scans_equal, assert_last_steps_equal, kalman_rts, largest_difference,
-    linear_options, params, simulate,
+    assert_last_scans_equal, assert_last_steps_equal, batch_and_causal, kalman_rts,
+    largest_difference, linear_options, params, simulate,
 };
 
 #[test]
@@ -50,14 +50,7 @@ fn causal_equals_batch_at_the_last_scan() {
     // Linear: exact.
     let run = simulate(35_002, 50, 3, qc, true);
     let opts = linear_options(qc, v0);
-    let batch = smooth(&run.times_s, &run.regs, Mode::Batch, &opts).unwrap();
-    let causal = smooth(
-        &run.times_s,
-        &run.regs,
-        Mode::Causal { lag_scans: 0 },
-        &opts,
-    )
-    .unwrap();
+    let (batch, causal) = batch_and_causal(&run, &opts);
     assert_last_scans_equal(&batch, &causal);
     assert_last_steps_equal(&batch, &causal);
     // Earlier scans differ: the causal estimate has not seen their future.
@@ -70,14 +63,7 @@ fn causal_equals_batch_at_the_last_scan() {
         process_noise: ProcessNoise::Fixed(qc),
         ..SmootherOptions::default()
     };
-    let batch = smooth(&run.times_s, &run.regs, Mode::Batch, &opts).unwrap();
-    let causal = smooth(
-        &run.times_s,
-        &run.regs,
-        Mode::Causal { lag_scans: 0 },
-        &opts,
-    )
-    .unwrap();
+    let (batch, causal) = batch_and_causal(&run, &opts);
     let (b, c) = (batch.scans.last().unwrap(), causal.scans.last().unwrap());
     for i in 0..3 {
         let sigma = b.cov[(i + 3, i + 3)].sqrt();

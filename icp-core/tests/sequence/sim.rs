@@ -2,7 +2,7 @@
 //! linear-Gaussian case.
 
 use icp_core::sequence::{
-    Geometry, MotionPrior, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed,
+    smooth, Geometry, Mode, MotionPrior, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed,
     SmootherOptions, TwistPrior,
 };
 use nalgebra::{DMatrix, DVector, Isometry2, Matrix3, SMatrix, Vector2, Vector3};
@@ -399,6 +399,19 @@ pub fn largest_difference(out: &Smoothed, (means, covs, steps): &Oracle) -> f64 
         worst = worst.max((s.cov - steps[k]).abs().max());
     }
     worst
+}
+
+/// `run` smoothed in batch and causally (no lag) under `options`.
+pub fn batch_and_causal(run: &Run, options: &SmootherOptions) -> (Smoothed, Smoothed) {
+    let batch = smooth(&run.times_s, &run.regs, Mode::Batch, options).unwrap();
+    let causal = smooth(
+        &run.times_s,
+        &run.regs,
+        Mode::Causal { lag_scans: 0 },
+        options,
+    )
+    .unwrap();
+    (batch, causal)
 }
 
 /// The last step's estimate of two solutions (batch and causal) agree to 1e-9.
