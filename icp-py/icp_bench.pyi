@@ -220,7 +220,8 @@ def run(
     k → k+ℓ for 2 ≤ ℓ ≤ lags and writes cycles.csv, as --lags does. sequence (["batch",
     "causal"] or "batch,causal", as --sequence) adds the smoothed estimators V+batch, V+causal
     of each variant with a covariance, sequence.csv and V+causal.nmea; motion_prior
-    ("white_acceleration" or "white_jerk", as --motion-prior) is their prior. reference_offset: scans
+    ("white_acceleration", "white_jerk" or "likelier", as --motion-prior) is their prior.
+    reference_offset: scans
     (the default, 0, never applies an offset) or "auto" (the estimated one);
     reference_offset and reference_checks are refused on a dataset without a reference."""
 

@@ -11,7 +11,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use icp_core::sequence::{
-    smooth, Mode, MotionPrior, ProcessNoise, ScanErrors, SequenceRegistration, SmootherOptions,
+    smooth, Mode, MotionPrior, PriorChoice, ProcessNoise, ScanErrors, SequenceRegistration,
+    SmootherOptions,
 };
 use nalgebra::{Isometry2, Matrix3, Vector2};
 use rand::SeedableRng;
@@ -85,7 +86,7 @@ fn bench(c: &mut Criterion) {
         ("_white_jerk", MotionPrior::WhiteJerk),
     ] {
         let estimate = SmootherOptions {
-            motion_prior,
+            motion_prior: PriorChoice::Given(motion_prior),
             ..SmootherOptions::default()
         };
         let estimated = smooth(&times, &regs, Mode::Batch, &estimate).unwrap();

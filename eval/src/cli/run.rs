@@ -85,8 +85,10 @@ pub(crate) struct RunArgs {
     #[arg(long, value_enum, value_delimiter = ',')]
     pub(crate) sequence: Vec<SequenceMode>,
     /// The smoothers' motion prior between consecutive scans (with `--sequence`): white noise
-    /// on acceleration (a constant velocity) or on jerk (a constant acceleration, for a hull
-    /// whose acceleration changes slowly against the scans' rate). See docs/sequence.md.
+    /// on acceleration (a constant velocity), on jerk (a constant acceleration, for a hull
+    /// whose acceleration changes slowly against the scans' rate), or per variant the one
+    /// under which its registrations are likelier (both estimated: twice the smoothing time).
+    /// See docs/sequence.md.
     #[arg(long, value_enum, default_value_t = SequencePrior::WhiteAcceleration)]
     pub(crate) motion_prior: SequencePrior,
     /// Output directory.

@@ -182,7 +182,7 @@ fn mask(indices: &[u32], len: usize) -> Vec<bool> {
 mod tests {
     use datasets::synthetic::{generate, Scenario};
     use icp_core::global::GlobalParams;
-    use icp_core::sequence::{ScanEstimate, ScanShare, SolveStop};
+    use icp_core::sequence::{MotionPrior, ScanEstimate, ScanShare, SolveStop};
     use icp_core::variants::builtin;
     use icp_core::Registration;
     use nalgebra::{Isometry2, Vector2, Vector3};
@@ -202,7 +202,10 @@ mod tests {
                 })
                 .collect(),
             steps: Vec::new(),
+            motion_prior: MotionPrior::WhiteAcceleration,
             qc: [1.0; 3],
+            log_likelihood: None,
+            prior_evidence: None,
             em_iterations: 0,
             stop: SolveStop::Converged,
             scan_share: ScanShare {

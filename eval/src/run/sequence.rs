@@ -28,7 +28,8 @@ use std::borrow::Cow;
 
 use datasets::{Dataset, ScanPair};
 use icp_core::sequence::{
-    self, Mode, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed, SmootherOptions,
+    self, Mode, PriorChoice, ProcessNoise, ScanErrors, SequenceRegistration, Smoothed,
+    SmootherOptions,
 };
 use icp_core::termination::StopReason;
 use icp_core::{Covariance, IcpError, Registration};
@@ -63,9 +64,14 @@ pub struct SequenceSummary {
     /// registrations does not close (`measure::cycles::loop_open`).
     #[serde(default)]
     pub left_out_loop_open: usize,
-    /// The motion prior (`--motion-prior`).
+    /// The motion prior it used (`--motion-prior`; under `likelier`, the one chosen).
     #[serde(default)]
     pub motion_prior: SequencePrior,
+    /// Under `--motion-prior likelier`: each prior's log-likelihood of the registrations
+    /// beyond the first scans given those, `[white_acceleration, white_jerk]`, nats (the
+    /// batch smoother's).
+    #[serde(default)]
+    pub prior_evidence: Option<[f64; 2]>,
     /// The prior's process noise `[surge m²/s³, sway m²/s³, yaw rad²/s³]` (white noise on
     /// jerk: per s⁵), estimated from the run (expectation–maximisation, the batch smoother's).
     pub qc: Option<[f64; 3]>,
@@ -237,6 +243,7 @@ fn smooth_variant(
                         &regs,
                         Mode::Causal { lag_scans: 0 },
                         &SmootherOptions {
+                            motion_prior: PriorChoice::Given(b.motion_prior),
                             process_noise: ProcessNoise::Fixed(b.qc),
                             scan_errors: ScanErrors::Share(b.scan_share.share),
                             ..options
@@ -273,7 +280,11 @@ fn smooth_variant(
                     registrations: solved.registrations,
                     left_out: solved.left_out.flagged + solved.left_out.loop_open,
                     left_out_loop_open: solved.left_out.loop_open,
-                    motion_prior: setup.sequence.prior(),
+                    motion_prior: match (em, out) {
+                        (Some(b), _) | (None, Ok(b)) => SequencePrior::of(b.motion_prior),
+                        (None, Err(_)) => setup.sequence.prior(),
+                    },
+                    prior_evidence: em.and_then(|b| b.prior_evidence),
                     qc: em.map(|b| b.qc),
                     em_rounds: em.map_or(0, |b| b.em_iterations),
                     scan_share: em.map(|b| b.scan_share.share),
@@ -291,7 +302,7 @@ fn smooth_variant(
 /// The smoothers' options in `setup`: the defaults under its motion prior.
 fn smoother_options(setup: &EvalSetup) -> SmootherOptions {
     SmootherOptions {
-        motion_prior: setup.sequence.prior().motion_prior(),
+        motion_prior: setup.sequence.prior().choice(),
         ..SmootherOptions::default()
     }
 }
@@ -560,7 +571,10 @@ mod tests {
                     supported: k < 4,
                 })
                 .collect(),
+            motion_prior: icp_core::sequence::MotionPrior::WhiteAcceleration,
             qc: [1.0; 3],
+            log_likelihood: None,
+            prior_evidence: None,
             em_iterations: 0,
             stop: icp_core::sequence::SolveStop::Converged,
             scan_share: icp_core::sequence::ScanShare {

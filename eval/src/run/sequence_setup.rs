@@ -1,7 +1,7 @@
 //! What `--sequence` asks for: the smoothers' modes and the estimators they add (see
 //! the `sequence` module, which makes them).
 
-use icp_core::sequence::MotionPrior;
+use icp_core::sequence::{MotionPrior, PriorChoice};
 use icp_core::Registrar;
 use serde::{Deserialize, Serialize};
 
@@ -40,14 +40,26 @@ pub enum SequencePrior {
     /// White noise on jerk: a constant acceleration between scans, each scan's state holding
     /// its body acceleration.
     WhiteJerk,
+    /// Both, and per variant the one under which its registrations are likelier (the
+    /// smoother's evidence; costs both estimations).
+    Likelier,
 }
 
 impl SequencePrior {
-    /// The smoother's prior.
-    pub fn motion_prior(self) -> MotionPrior {
+    /// The smoother's choice.
+    pub fn choice(self) -> PriorChoice {
         match self {
-            Self::WhiteAcceleration => MotionPrior::WhiteAcceleration,
-            Self::WhiteJerk => MotionPrior::WhiteJerk,
+            Self::WhiteAcceleration => PriorChoice::Given(MotionPrior::WhiteAcceleration),
+            Self::WhiteJerk => PriorChoice::Given(MotionPrior::WhiteJerk),
+            Self::Likelier => PriorChoice::Likelier,
+        }
+    }
+
+    /// The name of a prior the smoother used.
+    pub fn of(prior: MotionPrior) -> Self {
+        match prior {
+            MotionPrior::WhiteAcceleration => Self::WhiteAcceleration,
+            MotionPrior::WhiteJerk => Self::WhiteJerk,
         }
     }
 

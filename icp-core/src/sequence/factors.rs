@@ -171,6 +171,17 @@ pub(crate) fn a_inverse(order: usize, dt_s: f64, i: usize, j: usize, scale: f64)
     scale * A_INVERSE[order - 2][i][j] / dt_s.powi((2 * order - 1 - i - j) as i32)
 }
 
+/// `ln det A(Δt)⁻¹` per axis for a state of `order` derivatives ([`a_inverse`]).
+pub(crate) fn ln_det_a_inverse(order: usize, dt_s: f64) -> f64 {
+    let mut a = Matrix3::identity();
+    for i in 0..order {
+        for j in 0..order {
+            a[(i, j)] = a_inverse(order, dt_s, i, j, 1.0);
+        }
+    }
+    a.determinant().ln()
+}
+
 /// `A₀₀(Δt)`: the variance of the position's residual over a step per unit `q`, for a state of
 /// `order` derivatives (`Δt³/3`, `Δt⁵/20`).
 pub(crate) fn position_variance(order: usize, dt_s: f64) -> f64 {

@@ -41,6 +41,7 @@
 mod band;
 mod batch;
 mod causal;
+mod evidence;
 mod factors;
 #[cfg(test)]
 mod fixtures;
@@ -125,6 +126,24 @@ impl MotionPrior {
     }
 }
 
+/// Which motion prior the smoother takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PriorChoice {
+    /// This one.
+    Given(MotionPrior),
+    /// Both, each with its `Qc` estimated, and the one under which the registrations beyond
+    /// the first scans are likelier given those (Laplace's approximation; see
+    /// [`Smoothed::prior_evidence`]). Needs [`ProcessNoise::Estimate`] (a `Qc` given is one
+    /// prior's) and costs both estimations.
+    Likelier,
+}
+
+impl Default for PriorChoice {
+    fn default() -> Self {
+        Self::Given(MotionPrior::default())
+    }
+}
+
 /// Where the prior's `Qc` comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ProcessNoise {
@@ -146,7 +165,7 @@ pub enum ProcessNoise {
 pub struct SmootherOptions {
     pub geometry: Geometry,
     /// The motion prior; white noise on acceleration by default.
-    pub motion_prior: MotionPrior,
+    pub motion_prior: PriorChoice,
     pub process_noise: ProcessNoise,
     /// Huber threshold on a registration's Mahalanobis distance. Default 3.37 = √χ²₃(0.99): a
     /// registration as good as its covariance says keeps full weight 99 % of the time.
@@ -187,7 +206,7 @@ impl Default for SmootherOptions {
     fn default() -> Self {
         Self {
             geometry: Geometry::Se2,
-            motion_prior: MotionPrior::WhiteAcceleration,
+            motion_prior: PriorChoice::default(),
             process_noise: ProcessNoise::Estimate {
                 max_iterations: 50,
                 tolerance: 1e-3,
@@ -273,8 +292,17 @@ impl SolveStop {
 pub struct Smoothed {
     pub scans: Vec<ScanEstimate>,
     pub steps: Vec<StepEstimate>,
-    /// The `Qc` used: `[surge m²/s³, sway m²/s³, yaw rad²/s³]`.
+    /// The motion prior used (the likelier one under [`PriorChoice::Likelier`]).
+    pub motion_prior: MotionPrior,
+    /// The `Qc` used: `[surge m²/s³, sway m²/s³, yaw rad²/s³]` (white noise on jerk: per s⁵).
     pub qc: [f64; 3],
+    /// The registrations' log-likelihood at the batch solution (Laplace's approximation with
+    /// every constant: exact for a linear-Gaussian model with priors on scan 0's twist and
+    /// acceleration; improper, by a constant, without). None in the causal mode.
+    pub log_likelihood: Option<f64>,
+    /// Under [`PriorChoice::Likelier`]: each prior's log-likelihood of the registrations
+    /// beyond the first scans given those, `[white noise on acceleration, on jerk]`, nats.
+    pub prior_evidence: Option<[f64; 2]>,
     /// Expectation–maximisation rounds (0 for a fixed `Qc`).
     pub em_iterations: usize,
     /// How the solve that gave the estimates stopped (the causal mode: the worst of its
@@ -308,45 +336,43 @@ pub fn smooth(
         scan_errors::information(options.geometry, &regs, &headings_rad, scan_share.share)
     });
     let own = scan_errors::own_parts(&regs, scan_share.share);
-    let mut model = Model {
+    let base = Model {
         geometry: options.geometry,
         times_s,
         regs: &own,
-        prior: options.motion_prior,
+        prior: MotionPrior::default(),
         qc: [1.0; 3],
         huber_k: options.huber_k,
         twist0: gaussian("initial_twist", options.initial_twist)?,
         accel0: gaussian("initial_acceleration", options.initial_acceleration)?,
         scan_errors: errors.as_deref(),
     };
-    let (em_iterations, last) = match options.process_noise {
-        ProcessNoise::Fixed(qc) => {
-            model.qc = qc;
-            (0, None)
+    let with = |prior| Model {
+        prior,
+        ..base.clone()
+    };
+    let (model, em_iterations, last, prior_evidence) = match options.motion_prior {
+        PriorChoice::Given(prior) => {
+            let (model, em_iterations, last) = fit(options, with(prior), &init, &regs)?;
+            (model, em_iterations, last, None)
         }
-        ProcessNoise::Estimate {
-            max_iterations,
-            tolerance,
-            likelihood_tolerance,
-        } => {
-            let estimated = noise::estimate(
-                options,
-                &model,
-                init.clone(),
-                noise::starts(options.geometry, options.motion_prior, times_s, &regs),
-                &noise::EmStop {
-                    max_rounds: max_iterations,
-                    tolerance,
-                    likelihood_tolerance,
-                },
-            )?;
-            // EM's last round: its `Qc`, and the batch solution there.
-            model.qc = estimated.last.qc;
-            (estimated.rounds, Some(estimated.last))
+        PriorChoice::Likelier => {
+            let mut fits = Vec::new();
+            for prior in [MotionPrior::WhiteAcceleration, MotionPrior::WhiteJerk] {
+                let (model, em_iterations, last) = fit(options, with(prior), &init, &regs)?;
+                let last = last.expect("validated: the choice estimates Qc");
+                fits.push(evidence::Fit {
+                    model,
+                    em_iterations,
+                    last,
+                });
+            }
+            let (fit, scores) = evidence::likelier(fits, options)?;
+            (fit.model, fit.em_iterations, Some(fit.last), Some(scores))
         }
     };
     let qc = model.qc;
-    let ((scans, steps), stop) = match mode {
+    let ((scans, steps), stop, log_likelihood) = match mode {
         // The batch solution is EM's last round's, or solved at a `Qc` given; the causal one
         // starts from the chained start, which uses no scan after the one it estimates.
         Mode::Batch => {
@@ -361,18 +387,63 @@ pub fn smooth(
                     .collect()
             };
             let (own, cross) = (pose_twist(&m.own), pose_twist(&m.cross));
-            (outputs(&model, &solved.est, &own, &cross), solved.stop)
+            let dim = model.layout(0, times_s.len()).dim();
+            let ll = evidence::log_likelihood(&model, solved.cost, m.log_det_h, dim);
+            let outputs = outputs(&model, &solved.est, &own, &cross);
+            (outputs, solved.stop, Some(ll))
         }
-        Mode::Causal { lag_scans } => causal::run(&model, init, lag_scans, options)?,
+        Mode::Causal { lag_scans } => {
+            let (outputs, stop) = causal::run(&model, init, lag_scans, options)?;
+            (outputs, stop, None)
+        }
     };
     Ok(Smoothed {
         scans,
         steps,
+        motion_prior: model.prior,
         qc,
+        log_likelihood,
+        prior_evidence,
         em_iterations,
         stop,
         scan_share,
     })
+}
+
+/// `model`'s `Qc`, as given or estimated by EM from `init`: the model at that `Qc`, the EM
+/// rounds, and EM's last round (its batch solution), if estimated.
+fn fit<'a>(
+    options: &SmootherOptions,
+    mut model: Model<'a>,
+    init: &Estimates,
+    regs: &[Reg],
+) -> Result<(Model<'a>, usize, Option<noise::Solved>), SequenceError> {
+    match options.process_noise {
+        ProcessNoise::Fixed(qc) => {
+            model.qc = qc;
+            Ok((model, 0, None))
+        }
+        ProcessNoise::Estimate {
+            max_iterations,
+            tolerance,
+            likelihood_tolerance,
+        } => {
+            let estimated = noise::estimate(
+                options,
+                &model,
+                init.clone(),
+                noise::starts(model.geometry, model.prior, model.times_s, regs),
+                &noise::EmStop {
+                    max_rounds: max_iterations,
+                    tolerance,
+                    likelihood_tolerance,
+                },
+            )?;
+            // EM's last round: its `Qc`, and the batch solution there.
+            model.qc = estimated.last.qc;
+            Ok((model, estimated.rounds, Some(estimated.last)))
+        }
+    }
 }
 
 fn validate_times(times_s: &[f64]) -> Result<(), SequenceError> {
@@ -402,10 +473,18 @@ fn validate_options(o: &SmootherOptions) -> Result<(), SequenceError> {
     if !(o.tolerance.is_finite() && o.tolerance > 0.0) {
         return bad("tolerance", "must be finite and positive");
     }
-    if o.initial_acceleration.is_some() && o.motion_prior != MotionPrior::WhiteJerk {
+    if o.initial_acceleration.is_some()
+        && o.motion_prior == PriorChoice::Given(MotionPrior::WhiteAcceleration)
+    {
         return bad(
             "initial_acceleration",
             "only white noise on jerk has an acceleration in its state",
+        );
+    }
+    if let (PriorChoice::Likelier, ProcessNoise::Fixed(_)) = (o.motion_prior, o.process_noise) {
+        return bad(
+            "motion_prior",
+            "the choice between priors estimates each one's Qc (a Qc given is one prior's)",
         );
     }
     if let ScanErrors::Share(share) = o.scan_errors {

@@ -58,12 +58,14 @@ pub(crate) fn batch_with_marginals(
 ) -> Result<Solved, SequenceError> {
     let layout = model.layout(0, est.poses.len());
     let mut sys = SparseSystem::new(model, &layout, est.poses.len())?;
-    let (est, marginals, (_, stop)) = solve_with_marginals(model, est, &mut sys, &layout, options)?;
+    let (est, marginals, (cost, stop)) =
+        solve_with_marginals(model, est, &mut sys, &layout, options)?;
     Ok(Solved {
         qc: model.qc,
         est,
         marginals,
         stop,
+        cost,
     })
 }
 
@@ -74,6 +76,8 @@ pub(crate) struct Solved {
     pub est: Estimates,
     pub marginals: Marginals,
     pub stop: SolveStop,
+    /// The cost at the solution (robust registrations', priors', scan errors').
+    pub cost: f64,
 }
 
 /// [`batch_with_marginals`] on the system `sys` already laid out (its symbolic factorisation
@@ -362,6 +366,7 @@ impl Em<'_> {
             est,
             marginals,
             stop,
+            cost,
         };
         Ok((next, (solved, evidence)))
     }

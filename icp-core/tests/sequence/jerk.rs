@@ -4,7 +4,8 @@
 //! from motion drawn from that prior itself.
 
 use icp_core::sequence::{
-    smooth, Mode, MotionPrior, ProcessNoise, SequenceError, SmootherOptions, TwistPrior,
+    smooth, Mode, MotionPrior, PriorChoice, ProcessNoise, SequenceError, SmootherOptions,
+    TwistPrior,
 };
 use nalgebra::{Matrix3, Vector3};
 
@@ -30,7 +31,7 @@ fn initial() -> [TwistPrior; 2] {
 fn jerk_linear_options(qc: [f64; 3]) -> SmootherOptions {
     let [v0, a0] = initial();
     SmootherOptions {
-        motion_prior: MotionPrior::WhiteJerk,
+        motion_prior: PriorChoice::Given(MotionPrior::WhiteJerk),
         initial_acceleration: Some(a0),
         ..linear_options(qc, v0)
     }
@@ -63,6 +64,73 @@ fn linear_gaussian_batch_under_white_noise_on_jerk_equals_kalman_rts() {
     .unwrap();
     let apart = (other.scans[30].twist - out.scans[30].twist).abs().max();
     assert!(apart > 1e-4, "{apart:e}");
+}
+
+/// The smoother's log-likelihood of the registrations (Laplace's approximation with every
+/// constant) is exact for a linear-Gaussian model: the Kalman filter's, over its innovations,
+/// under either prior.
+#[test]
+fn the_log_likelihood_of_a_linear_gaussian_run_is_the_kalman_filters() {
+    let qc = [0.02, 0.01, 1e-4];
+    let [v0, _] = initial();
+    for prior in [MotionPrior::WhiteAcceleration, MotionPrior::WhiteJerk] {
+        let run = simulate_shared(35_105, 60, 3, qc, true, 0.0, prior);
+        let (options, oracle) = match prior {
+            MotionPrior::WhiteAcceleration => (
+                linear_options(qc, v0),
+                kalman_rts_of(&run, 3, &qc, &initial()[..1]),
+            ),
+            MotionPrior::WhiteJerk => (
+                jerk_linear_options(qc),
+                kalman_rts_of(&run, 3, &qc, &initial()),
+            ),
+        };
+        let out = smooth(&run.times_s, &run.regs, Mode::Batch, &options).unwrap();
+        let ll = out.log_likelihood.unwrap();
+        assert!(
+            (ll - oracle.3).abs() < 1e-6,
+            "{prior:?}: smoother {ll}, Kalman filter {}",
+            oracle.3
+        );
+        // Not a constant that would pass anywhere: a tenth of the q is another likelihood.
+        let other = SmootherOptions {
+            process_noise: ProcessNoise::Fixed(qc.map(|q| q / 10.0)),
+            ..options
+        };
+        let off = smooth(&run.times_s, &run.regs, Mode::Batch, &other).unwrap();
+        assert!((off.log_likelihood.unwrap() - ll).abs() > 1.0);
+    }
+}
+
+/// Each prior drawn from is the one chosen: on a run drawn from white noise on jerk the
+/// registrations beyond the first scans are likelier under it, and on one drawn from white
+/// noise on acceleration under that.
+#[test]
+fn the_likelier_prior_is_the_one_the_motion_was_drawn_from() {
+    let likelier = SmootherOptions {
+        motion_prior: PriorChoice::Likelier,
+        ..SmootherOptions::default()
+    };
+    let drawn = [
+        (MotionPrior::WhiteJerk, [1e-4, 1e-5, 1e-9]),
+        (MotionPrior::WhiteAcceleration, [0.05, 0.01, 2e-4]),
+    ];
+    for (prior, qc) in drawn {
+        let run = simulate_shared(35_106, 865, 3, qc, false, 0.0, prior);
+        let out = smooth(&run.times_s, &run.regs, Mode::Batch, &likelier).unwrap();
+        let [acceleration, jerk] = out.prior_evidence.unwrap();
+        assert_eq!(
+            out.motion_prior, prior,
+            "predictive log-likelihood: white noise on acceleration {acceleration}, on jerk {jerk}"
+        );
+        // The chosen prior's solution is the one given that prior alone.
+        let given = SmootherOptions {
+            motion_prior: PriorChoice::Given(prior),
+            ..SmootherOptions::default()
+        };
+        let alone = smooth(&run.times_s, &run.regs, Mode::Batch, &given).unwrap();
+        assert_eq!((out.qc, out.scans), (alone.qc, alone.scans));
+    }
 }
 
 #[test]
@@ -98,7 +166,7 @@ fn qc_under_white_noise_on_jerk_is_recovered_from_motion_drawn_from_it() {
     let qc = [1e-4, 1e-5, 1e-9];
     let run = simulate_shared(35_103, 865, 3, qc, false, 0.0, MotionPrior::WhiteJerk);
     let jerk = SmootherOptions {
-        motion_prior: MotionPrior::WhiteJerk,
+        motion_prior: PriorChoice::Given(MotionPrior::WhiteJerk),
         ..SmootherOptions::default()
     };
     let (jerk_rmse, estimated) = surge_rmse(&run, &jerk);
@@ -121,7 +189,7 @@ fn qc_under_white_noise_on_jerk_is_recovered_from_motion_drawn_from_it() {
 }
 
 #[test]
-fn an_initial_acceleration_without_an_acceleration_in_the_state_is_refused() {
+fn options_a_prior_cannot_take_are_refused() {
     let run = simulate(35_104, 10, 2, [0.02, 0.01, 1e-4], false);
     let bad = SmootherOptions {
         initial_acceleration: Some(initial()[1]),
@@ -132,6 +200,19 @@ fn an_initial_acceleration_without_an_acceleration_in_the_state_is_refused() {
         smooth(&run.times_s, &run.regs, Mode::Batch, &bad),
         Err(SequenceError::BadOption {
             name: "initial_acceleration",
+            ..
+        })
+    ));
+    // A Qc given is one prior's: the choice between them estimates each one's.
+    let bad = SmootherOptions {
+        motion_prior: PriorChoice::Likelier,
+        process_noise: ProcessNoise::Fixed([0.02, 0.01, 1e-4]),
+        ..SmootherOptions::default()
+    };
+    assert!(matches!(
+        smooth(&run.times_s, &run.regs, Mode::Batch, &bad),
+        Err(SequenceError::BadOption {
+            name: "motion_prior",
             ..
         })
     ));

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector, Isometry2, Matrix3, SMatrix, Vector2, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
+use std::f64::consts::PI;
 
 pub type Matrix6 = SMatrix<f64, 6, 6>;
 pub type Matrix9 = SMatrix<f64, 9, 9>;
@@ -241,14 +242,15 @@ pub fn scan_error_covariances(
 }
 
 /// Per scan the smoothed `[p; v]` mean and covariance; per step the covariance of
-/// `p_k − p_k+1`.
-pub type Oracle = (Vec<DVector<f64>>, Vec<DMatrix<f64>>, Vec<Matrix3<f64>>);
+/// `p_k − p_k+1`; the registrations' log-likelihood (the filter's innovations').
+pub type Oracle = (Vec<DVector<f64>>, Vec<DMatrix<f64>>, Vec<Matrix3<f64>>, f64);
 
 /// Kalman filter and RTS smoother on `s_k = [p_k, v_k, p_k−1, …, p_k−L]` for the linear
 /// model: `p_k+1 = p_k + Δt v_k + w_p`, `v_k+1 = v_k + w_v`, registrations
 /// `z = p_source − p_reference + n`. `p_0 = 0` is known exactly, `v_0 ~ N(m0, P0)`.
-/// Returns per scan the smoothed `[p; v]` mean and covariance, and per step the covariance of
-/// `p_k − p_k+1`.
+/// Returns per scan the smoothed `[p; v]` mean and covariance, per step the covariance of
+/// `p_k − p_k+1`, and the registrations' log-likelihood `Σ ln N(ν; 0, S)` over the filter's
+/// innovations ν and their covariances S.
 pub fn kalman_rts(run: &Run, lags: usize, qc: &[f64; 3], v0: &TwistPrior) -> Oracle {
     kalman_rts_of(run, lags, qc, &[*v0])
 }
@@ -269,6 +271,7 @@ pub fn kalman_rts_of(run: &Run, lags: usize, qc: &[f64; 3], initial: &[TwistPrio
             .copy_from(&prior.cov);
     }
     let (mut mf, mut pf, mut mp, mut pp, mut fs) = (vec![], vec![], vec![], vec![], vec![]);
+    let mut log_likelihood = 0.0;
     for k in 0..n {
         if k > 0 {
             let dt = run.times_s[k] - run.times_s[k - 1];
@@ -310,8 +313,12 @@ pub fn kalman_rts_of(run: &Run, lags: usize, qc: &[f64; 3], initial: &[TwistPrio
             let z = DVector::from_vec(vec![v.x, v.y, r.t_ref_src.rotation.angle()]);
             let rr = DMatrix::from_iterator(3, 3, r.cov.iter().copied());
             let s = &h * &p * h.transpose() + &rr;
-            let k_gain = &p * h.transpose() * s.try_inverse().unwrap();
-            m = &m + &k_gain * (z - &h * &m);
+            let s_inv = s.clone().try_inverse().unwrap();
+            let nu = z - &h * &m;
+            log_likelihood -=
+                0.5 * (nu.dot(&(&s_inv * &nu)) + s.determinant().ln() + 3.0 * (2.0 * PI).ln());
+            let k_gain = &p * h.transpose() * s_inv;
+            m = &m + &k_gain * nu;
             let ikh = DMatrix::identity(dim, dim) - &k_gain * &h;
             p = &ikh * &p * ikh.transpose() + &k_gain * rr * k_gain.transpose();
         }
@@ -354,7 +361,7 @@ pub fn kalman_rts_of(run: &Run, lags: usize, qc: &[f64; 3], initial: &[TwistPrio
         .iter()
         .map(|c| c.view((0, 0), (6, 6)).into_owned())
         .collect();
-    (means, covs, step)
+    (means, covs, step, log_likelihood)
 }
 
 pub fn linear_options(qc: [f64; 3], v0: TwistPrior) -> SmootherOptions {
@@ -379,7 +386,7 @@ pub fn params(t: &Isometry2<f64>) -> Vector3<f64> {
 
 /// The largest difference of a linear solution `out` from the Kalman/RTS `oracle`: each
 /// scan's pose, twist and covariance, each step's `p_k − p_k+1` and its covariance.
-pub fn largest_difference(out: &Smoothed, (means, covs, steps): &Oracle) -> f64 {
+pub fn largest_difference(out: &Smoothed, (means, covs, steps, _): &Oracle) -> f64 {
     let mut worst: f64 = 0.0;
     for (k, s) in out.scans.iter().enumerate() {
         for i in 0..3 {
