@@ -12,7 +12,9 @@
 //! - between consecutive scans, the white-noise-on-acceleration prior of Barfoot, Tong &
 //!   Särkkä (2014) as in STEAM: `e = [Log(T_k⁻¹T_k+1) − Δt·ϖ_k ; ϖ_k+1 − ϖ_k]` with covariance
 //!   `Q = [[Δt³/3, Δt²/2], [Δt²/2, Δt]] ⊗ Qc`, `Qc = diag(q_surge, q_sway, q_yaw)`, over each
-//!   pair's actual Δt (a missing scan is bridged by a longer Δt, whose Q grows as Δt³);
+//!   pair's actual Δt (a missing scan is bridged by a longer Δt, whose Q grows as Δt³); or,
+//!   as an option ([`MotionPrior::WhiteJerk`]), white noise on jerk, each state then holding a
+//!   body acceleration too (Tang, Yoon & Barfoot 2019; the `factors` module);
 //! - each scan's error (`(x m, y m, θ rad)` beside its pose, zero-mean): what its noise, its
 //!   motion distortion and whatever moved in it do to every registration that uses it, so that
 //!   registrations sharing a scan are correlated as they are; the share of a registration's
@@ -22,6 +24,8 @@
 //! `Qc` is estimated from the data by expectation–maximisation (Wong et al. 2020): smooth,
 //! then set each axis' `q` to the maximum-likelihood value given the expected squared prior
 //! residuals (which include the smoothed covariance), until it settles; see [`ProcessNoise`].
+//! [`PriorChoice::Likelier`] estimates both priors and keeps the one under which the
+//! registrations are likelier (the `evidence` module).
 //!
 //! # Modes
 //! [`Mode::Batch`] solves every scan at once by Gauss–Newton with faer's sparse Cholesky.
