@@ -23,12 +23,13 @@ const RELATIVE_FLOOR: f64 = 1e-6;
 /// under white noise on acceleration, Δt⁵/20 on jerk). An axis that does not move (a vessel's
 /// sway on the paper harbour) sends EM's `q` towards 0; under white noise on jerk at the
 /// harbour's 0.2 s its prior then weighed 1e16 times a registration (`q` 9e-11 m²/s⁵ against
-/// this floor's 6e-8), beyond what the causal windows' dense factorisations hold in double
+/// this floor's 1.9–2.7e-6), beyond what the causal windows' dense factorisations hold in double
 /// precision (seed 3, HD_GICP: a window's system, eigenvalues 8.8 to 8.8e16, was not
 /// factorised and the estimator failed; scaled to a unit diagonal with a ridge, it factorised
 /// and diverged, 137 steps more than 0.05 m/s off with σ of 3e-7). Under white noise on
-/// acceleration the paper harbour's sway `q` (2e-8 m²/s³) lies above its floor (4e-10), and
-/// so do the moving axes' everywhere.
+/// acceleration the paper harbour's sway `q` (1.7–7.5e-8 m²/s³ on seeds 3, 13 and 2022) lies
+/// 1.5–5 times above its floor (1.1–1.6e-8 from seed 3), and the moving axes' far above
+/// theirs: it binds nowhere under that prior on the harbours, marina or aces.
 fn floors(model: &Model<'_>) -> [f64; 3] {
     let median = |mut v: Vec<f64>| {
         v.sort_by(f64::total_cmp);
