@@ -377,7 +377,8 @@ impl Em<'_> {
 /// `e_k` is the axis' residual (position and velocity, and acceleration under white noise on
 /// jerk: O = `R/3` of them), `A_k` its covariance per unit `q` ([`factors::a_inverse`]) and
 /// `E[e eᵀ] = ē ēᵀ + F Σ Fᵀ` with F the residual's Jacobian (`B` blocks, `J = 2R` columns) and
-/// Σ the joint marginal of scans k and k+1.
+/// Σ the joint marginal of scans k and k+1. Unfloored: the caller floors each axis
+/// ([`floors`]).
 fn m_step<const R: usize, const B: usize, const J: usize>(
     model: &Model<'_>,
     est: &Estimates,
@@ -421,7 +422,7 @@ fn m_step<const R: usize, const B: usize, const J: usize>(
             *s += trace;
         }
     }
-    sum.map(|s| (s / (order as f64 * (n - 1) as f64)).max(Q_FLOOR))
+    sum.map(|s| s / (order as f64 * (n - 1) as f64))
 }
 
 #[cfg(test)]

@@ -11,7 +11,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::sim::{
     assert_last_scans_equal, assert_last_steps_equal, batch_and_causal, kalman_rts_of,
-    largest_difference, linear_options, simulate, simulate_shared, Run,
+    largest_difference, linear_options, simulate, simulate_shared, surge_rmse, Run,
 };
 
 /// Scan 0's twist and acceleration as the linear runs' oracle takes them.
@@ -144,16 +144,10 @@ fn causal_under_white_noise_on_jerk_equals_batch_at_the_last_scan() {
     assert!((batch.scans[10].twist - causal.scans[10].twist).abs().max() > 1e-6);
 }
 
-/// The RMS error of the smoothed surge speed against the run's truth.
-fn surge_rmse(run: &Run, options: &SmootherOptions) -> (f64, [f64; 3]) {
+/// The RMS error of the batch solution's surge speed against the run's truth, and its `Qc`.
+fn batch_surge_rmse(run: &Run, options: &SmootherOptions) -> (f64, [f64; 3]) {
     let out = smooth(&run.times_s, &run.regs, Mode::Batch, options).unwrap();
-    let se: f64 = out
-        .scans
-        .iter()
-        .zip(&run.twists)
-        .map(|(s, t)| (s.twist.x - t.x).powi(2))
-        .sum();
-    ((se / run.twists.len() as f64).sqrt(), out.qc)
+    (surge_rmse(run, &out), out.qc)
 }
 
 #[test]
@@ -169,7 +163,7 @@ fn qc_under_white_noise_on_jerk_is_recovered_from_motion_drawn_from_it() {
         motion_prior: PriorChoice::Given(MotionPrior::WhiteJerk),
         ..SmootherOptions::default()
     };
-    let (jerk_rmse, estimated) = surge_rmse(&run, &jerk);
+    let (jerk_rmse, estimated) = batch_surge_rmse(&run, &jerk);
     for (a, q) in qc.iter().enumerate() {
         let ratio = estimated[a] / q;
         assert!(
@@ -181,7 +175,7 @@ fn qc_under_white_noise_on_jerk_is_recovered_from_motion_drawn_from_it() {
     }
     // On a motion whose acceleration wanders smoothly, the prior that holds it estimates the
     // speed better than a constant velocity with its own `Qc` estimated.
-    let (velocity_rmse, _) = surge_rmse(&run, &SmootherOptions::default());
+    let (velocity_rmse, _) = batch_surge_rmse(&run, &SmootherOptions::default());
     assert!(
         jerk_rmse < 0.8 * velocity_rmse,
         "white noise on jerk {jerk_rmse}, on acceleration {velocity_rmse}"

@@ -14,7 +14,7 @@ use icp_core::sequence::{
 use nalgebra::{Isometry2, Matrix3, Vector2, Vector3};
 use sim::{
     assert_last_scans_equal, assert_last_steps_equal, batch_and_causal, kalman_rts,
-    largest_difference, linear_options, params, simulate,
+    largest_difference, linear_options, params, simulate, surge_rmse,
 };
 
 #[test]
@@ -89,16 +89,7 @@ fn fixed_lag_sits_between_filter_and_batch() {
         process_noise: ProcessNoise::Fixed(qc),
         ..SmootherOptions::default()
     };
-    let rmse = |mode| {
-        let out = smooth(&run.times_s, &run.regs, mode, &opts).unwrap();
-        let se: f64 = out
-            .scans
-            .iter()
-            .zip(&run.twists)
-            .map(|(s, t)| (s.twist.x - t.x).powi(2))
-            .sum();
-        (se / run.twists.len() as f64).sqrt()
-    };
+    let rmse = |mode| surge_rmse(&run, &smooth(&run.times_s, &run.regs, mode, &opts).unwrap());
     let (filter, lagged, batch) = (
         rmse(Mode::Causal { lag_scans: 0 }),
         rmse(Mode::Causal { lag_scans: 3 }),

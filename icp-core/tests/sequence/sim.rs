@@ -408,6 +408,17 @@ pub fn largest_difference(out: &Smoothed, (means, covs, steps, _): &Oracle) -> f
     worst
 }
 
+/// The RMS error of `out`'s smoothed surge speed against `run`'s true twists.
+pub fn surge_rmse(run: &Run, out: &Smoothed) -> f64 {
+    let se: f64 = out
+        .scans
+        .iter()
+        .zip(&run.twists)
+        .map(|(s, t)| (s.twist.x - t.x).powi(2))
+        .sum();
+    (se / run.twists.len() as f64).sqrt()
+}
+
 /// `run` smoothed in batch and causally (no lag) under `options`.
 pub fn batch_and_causal(run: &Run, options: &SmootherOptions) -> (Smoothed, Smoothed) {
     let batch = smooth(&run.times_s, &run.regs, Mode::Batch, options).unwrap();
