@@ -19,7 +19,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use datasets::synthetic::{generate, Scenario};
 use datasets::ScanPair;
-use icp_core::moving::{FreeSpace, MovingReturns, Neighbour, RangeImage};
+use icp_core::moving::{Bridges, FreeSpace, MovingReturns, Neighbour, RangeImage};
 use icp_core::variants::builtin;
 use icp_core::{Prepared, Registrar, Scan, Surfaces, Workspace};
 use nalgebra::{Isometry2, Matrix3, Vector3};
@@ -55,7 +55,9 @@ fn moving(c: &mut Criterion) {
     let params = pl_icp.surface_params();
     let range = FIRST..FIRST + SCANS;
     let detect = |k: usize| {
-        let neighbours = Neighbour::placed(&steps, k, detector.lag_scans, |j| images.get(j));
+        let neighbours = Neighbour::placed((&steps, &Bridges::new()), k, detector.lag_scans, |j| {
+            images.get(j)
+        });
         detector.detect(&ds.scans[k], &neighbours, &ds.sensor)
     };
     let detections: Vec<_> = range.clone().map(detect).collect();

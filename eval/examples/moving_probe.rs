@@ -7,7 +7,7 @@
 
 use datasets::ScanPair;
 use icp_core::moving::{
-    beside, left_out_points, Detection, FreeSpace, MovingReturns, Neighbour, RangeImage,
+    beside, left_out_points, Bridges, Detection, FreeSpace, MovingReturns, Neighbour, RangeImage,
 };
 use icp_core::registry::Params;
 use nalgebra::{Matrix3, Vector3};
@@ -42,7 +42,10 @@ fn main() -> anyhow::Result<()> {
     let images: Vec<RangeImage> = ds.scans.iter().map(RangeImage::new).collect();
     let detected: Vec<Detection> = (0..n)
         .map(|k| {
-            let neighbours = Neighbour::placed(&steps, k, detector.lag_scans, |j| images.get(j));
+            let neighbours =
+                Neighbour::placed((&steps, &Bridges::new()), k, detector.lag_scans, |j| {
+                    images.get(j)
+                });
             detector.detect(&ds.scans[k], &neighbours, &ds.sensor)
         })
         .collect();

@@ -1,6 +1,7 @@
 //! The second pass of a variant with a detector of moving returns ([`icp_core::moving`]): once
 //! every consecutive pair is registered, each scan's detector runs against its neighbours
-//! (k−L..k+L, chained through the same variant's registrations whose status is `ok`), each
+//! (k−L..k+L, chained through the same variant's registrations whose status is `ok`, and over
+//! its `dynamic` ones by registrations that skip them: `moving::bridges`), each
 //! scan's detection is completed from what the scans on either side left out
 //! ([`MovingReturns::fill_between`]), and
 //! every pair whose scans have returns left out is registered again without them, starting
@@ -21,6 +22,7 @@
 //! that chain pairs.
 
 mod again;
+mod bridges;
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
@@ -39,6 +41,7 @@ use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 pub use again::{register_again, Made};
+use bridges::Bridging;
 
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
@@ -326,8 +329,20 @@ fn rounds(
         .unwrap_or(0);
     let mut last: Vec<Option<Detections>> = vec![None; registrars.len()];
     let mut registered: Vec<(usize, Option<Detections>)> = vec![(0, None); registrars.len()];
+    // The bridges over the steps each chain does not trust, registered as they are asked
+    // for; `found`: what the rounds before left out of the pairs registered again.
+    let mut bridging = Bridging::default();
+    let mut found: Vec<Option<Detections>> = vec![None; registrars.len()];
     for round in 0..rounds {
-        let detections = detect(ds, pairs, images, registrars, runs, round);
+        let trusted = |run: &PairRun| step_of(run, 0.0).is_some();
+        bridging.ask(
+            (ds, pairs),
+            (registrars, plan),
+            (runs, round),
+            &found,
+            trusted,
+        );
+        let detections = detect((ds, pairs), images, (registrars, runs), round, &bridging);
         // The last round's registrations are made by the caller, with the lag pairs'.
         let later: Vec<Option<Detections>> = detections
             .iter()
@@ -335,10 +350,16 @@ fn rounds(
             .map(|(d, r)| d.clone().filter(|_| own(r.as_ref()) > round + 1))
             .collect();
         register_again(ds, pairs, (registrars, plan), &later, &[], runs);
+        bridging.again(ds, (registrars, plan), &later);
         for ((times, with), d) in registered.iter_mut().zip(&later) {
             if d.is_some() {
                 *times += 1;
                 with.clone_from(d);
+            }
+        }
+        for (f, d) in found.iter_mut().zip(&later) {
+            if d.is_some() {
+                f.clone_from(d);
             }
         }
         for (l, d) in last.iter_mut().zip(detections) {
@@ -347,6 +368,7 @@ fn rounds(
             }
         }
     }
+    bridging.charge(runs);
     let once = registered
         .into_iter()
         .map(|(times, with)| with.filter(|_| times == 1))
@@ -375,33 +397,34 @@ fn images(
 }
 
 /// Per registrar (in order), its detections in the scans of `pairs` (whose range `images`
-/// they read) from its registrations `runs` of them (`None`: the registrar has no detector,
-/// or one of no more than `round` rounds).
-pub fn detect(
-    ds: &Dataset,
-    pairs: &[ScanPair],
+/// they read) from its registrations `runs` of them and the `bridging` ones over the steps it
+/// does not trust (`None`: the registrar has no detector, or one of no more than `round`
+/// rounds).
+fn detect(
+    (ds, pairs): (&Dataset, &[ScanPair]),
     images: &BTreeMap<usize, RangeImage>,
-    registrars: &[Box<dyn Registrar>],
-    runs: &Runs,
+    (registrars, runs): (&[Box<dyn Registrar>], &Runs),
     round: usize,
+    bridging: &Bridging,
 ) -> Vec<Option<Detections>> {
     let scans = run_scans(pairs);
     registrars
         .iter()
         .zip(&runs.per_variant)
-        .map(|(reg, variant_runs)| {
-            let detector = reg
-                .moving()
-                .filter(|m| m.placement() == Placement::Own && m.rounds() > round)?;
+        .enumerate()
+        .map(|(v, (reg, variant_runs))| {
+            let detector = own_detector(reg.as_ref(), round)?;
             let sensor = reg.spec().sensor;
             let inflation = closed_form_inflation(&reg.spec().metric);
             let steps = steps(ds.scans.len(), pairs, variant_runs, inflation);
+            let bridges = bridging.of(v, |run| step_of(run, inflation));
             let detected: Detections = scans
                 .par_iter()
                 .map(|&k| {
                     let clock = Instant::now();
+                    let chain = (&steps[..], &bridges);
                     let neighbours =
-                        Neighbour::placed(&steps, k, detector.lag_scans(), |j| images.get(&j));
+                        Neighbour::placed(chain, k, detector.lag_scans(), |j| images.get(&j));
                     let detection = detector.detect(&ds.scans[k], &neighbours, &sensor);
                     (k, (detection, clock.elapsed().as_secs_f64() * 1e6))
                 })
@@ -409,6 +432,13 @@ pub fn detect(
             Some(fill_between(ds, detector, &steps, &detected))
         })
         .collect()
+}
+
+/// `reg`'s detector where it places by the variant's own registrations and runs more than
+/// `round` rounds.
+fn own_detector(reg: &dyn Registrar, round: usize) -> Option<&dyn MovingReturns> {
+    reg.moving()
+        .filter(|m| m.placement() == Placement::Own && m.rounds() > round)
 }
 
 /// Each scan's detection in `detected` completed from what the scans on either side left out
@@ -435,21 +465,31 @@ fn fill_between(
         .collect()
 }
 
-/// Per scan i, the registration of scan i onto i+1 where it is among `pairs` and `ok`, with
-/// its extended covariance (the closed form times `inflation`, lifted to what its residuals
-/// show: [`extended`]; zero where it has none, and the detector's floor then speaks).
+/// Per scan i, the registration of scan i onto i+1 where it is among `pairs` and a step
+/// ([`step_of`]).
 fn steps(scans: usize, pairs: &[ScanPair], runs: &[PairRun], inflation: f64) -> Vec<Option<Step>> {
     let mut steps = vec![None; scans];
     for (pair, run) in pairs.iter().zip(runs) {
-        let Ok(reg) = &run.result else { continue };
-        if pair.reference == pair.source + 1 && run.status == PairStatus::Ok {
-            let covariance = extended(reg, inflation)
-                .and_then(|c| c.bounded().copied())
-                .unwrap_or_else(Matrix3::zeros);
-            steps[pair.source] = Some((reg.t_ref_src, covariance));
+        if pair.reference == pair.source + 1 {
+            if let Some(step) = step_of(run, inflation) {
+                steps[pair.source] = Some(step);
+            }
         }
     }
     steps
+}
+
+/// A registration `run` as a step of a chain, where it is `ok`: its motion with its extended
+/// covariance (the closed form times `inflation`, lifted to what its residuals show:
+/// [`extended`]; zero where it has none, and the detector's floor then speaks).
+fn step_of(run: &PairRun, inflation: f64) -> Option<Step> {
+    let Ok(reg) = &run.result else { return None };
+    (run.status == PairStatus::Ok).then(|| {
+        let covariance = extended(reg, inflation)
+            .and_then(|c| c.bounded().copied())
+            .unwrap_or_else(Matrix3::zeros);
+        (reg.t_ref_src, covariance)
+    })
 }
 
 #[cfg(test)]

@@ -1,5 +1,8 @@
 //! The poses of a scan's neighbours in the sequence, chained from the registrations of
-//! consecutive scans, with their first-order covariances.
+//! consecutive scans, and across the steps those leave untrusted by registrations that skip
+//! them (bridges), with their first-order covariances.
+
+use std::collections::BTreeMap;
 
 use nalgebra::{Isometry2, Matrix3, Vector2};
 
@@ -7,32 +10,65 @@ use nalgebra::{Isometry2, Matrix3, Vector2};
 /// `(tx m, ty m, θ rad)`.
 pub type Step = (Isometry2<f64>, Matrix3<f64>);
 
+/// Registrations over steps the chain does not trust: `bridges[&i] = (c, step)` registers scan
+/// `i` onto scan `c > i + 1`, where the step from `i` is not trusted, skipping the scans
+/// between.
+pub type Bridges = BTreeMap<usize, (usize, Step)>;
+
 /// `t_j_k` for every `j` within `lag` of `k` (`j ≠ k`, nearest first on each side), each with
-/// its covariance, chained through `steps[i]` (scan `i` onto `i + 1`; `None`: not trusted).
-/// A neighbour whose chain crosses a missing step is left out. Returns `(j, t_j_k, Σ)`.
+/// its covariance, chained through `steps[i]` (scan `i` onto `i + 1`; `None`: not trusted)
+/// and `bridges`: going forward, a bridge where the step is not trusted; going back, a bridge
+/// wherever one ends, the scan just before its end placed by its own step, if trusted, as a
+/// leaf. The other scans a bridge skips are not placed from beyond it. A neighbour whose chain
+/// crosses an untrusted step without a bridge is left out. Returns `(j, t_j_k, Σ)`.
 pub fn neighbour_poses(
     steps: &[Option<Step>],
+    bridges: &Bridges,
     k: usize,
     lag: usize,
 ) -> Vec<(usize, Isometry2<f64>, Matrix3<f64>)> {
     let mut out = Vec::with_capacity(2 * lag);
-    // Forward: t_{j}_k = step(j−1) · t_{j−1}_k.
-    let mut pose = (Isometry2::identity(), Matrix3::zeros());
-    for j in k + 1..=k + lag {
-        let Some(Some(step)) = steps.get(j - 1) else {
-            break;
+    // Forward: t_{j}_k = step(i → j) · t_{i}_k, through a bridge where the step from i is
+    // not trusted.
+    let (mut pose, mut i) = ((Isometry2::identity(), Matrix3::zeros()), k);
+    loop {
+        let (j, step) = match steps.get(i) {
+            Some(Some(step)) => (i + 1, step),
+            _ => match bridges.get(&i) {
+                Some((to, bridge)) => (*to, bridge),
+                None => break,
+            },
         };
+        if j > k + lag {
+            break;
+        }
         pose = compose(step, &pose);
         out.push((j, pose.0, pose.1));
+        i = j;
     }
-    // Backward: t_{j}_k = t_{j}_{j+1} · t_{j+1}_k, t_{j}_{j+1} = step(j)⁻¹.
-    let mut pose = (Isometry2::identity(), Matrix3::zeros());
-    for j in (k.saturating_sub(lag)..k).rev() {
-        let Some(Some(step)) = steps.get(j) else {
-            break;
+    // Backward: t_{j}_k = step(j → i)⁻¹ · t_{i}_k. A bridge that ends at i reaches past the
+    // scans it skips; the scan just before i is still placed by its own step, as a leaf.
+    let (mut pose, mut i) = ((Isometry2::identity(), Matrix3::zeros()), k);
+    loop {
+        let bridge = bridges.iter().find(|(_, (c, _))| *c == i);
+        let consecutive = i.checked_sub(1).and_then(|h| steps.get(h)?.as_ref());
+        let (j, step) = match (bridge, consecutive) {
+            (Some((&from, (_, bridge))), leaf) => {
+                if let Some(step) = leaf.filter(|_| i - 1 + lag >= k) {
+                    let placed = compose(&inverse(step), &pose);
+                    out.push((i - 1, placed.0, placed.1));
+                }
+                (from, bridge)
+            }
+            (None, Some(step)) => (i - 1, step),
+            (None, None) => break,
         };
+        if j + lag < k {
+            break;
+        }
         pose = compose(&inverse(step), &pose);
         out.push((j, pose.0, pose.1));
+        i = j;
     }
     out
 }
@@ -78,6 +114,57 @@ mod tests {
         nalgebra::Vector3::new(t.translation.x, t.translation.y, t.rotation.angle())
     }
 
+    /// A bridge carries the chain over the untrusted steps it spans, both ways, skipping the
+    /// scans between; the lag still bounds how far the chain reaches.
+    #[test]
+    fn bridges_span_untrusted_steps() {
+        let step = |x: f64, th: f64| (Isometry2::new(Vector2::new(x, 0.1), th), Matrix3::zeros());
+        let (s0, s2, s3, b) = (
+            step(1.0, 0.1),
+            step(1.1, 0.02),
+            step(0.9, -0.05),
+            step(2.1, 0.2),
+        );
+        // Step 1 is not trusted; the bridge registers scan 1 onto scan 3, skipping scan 2.
+        let steps = vec![Some(s0), None, Some(s2), Some(s3)];
+        let bridges = Bridges::from([(1, (3, b))]);
+        let placed = |k, lag| -> Vec<(usize, Isometry2<f64>)> {
+            neighbour_poses(&steps, &bridges, k, lag)
+                .into_iter()
+                .map(|(j, t, _)| (j, t))
+                .collect()
+        };
+        let check = |got: Vec<(usize, Isometry2<f64>)>, expected: &[(usize, Isometry2<f64>)]| {
+            assert_eq!(
+                got.iter().map(|n| n.0).collect::<Vec<_>>(),
+                expected.iter().map(|n| n.0).collect::<Vec<_>>()
+            );
+            for ((j, t), (_, e)) in got.iter().zip(expected) {
+                assert!((vec3(t) - vec3(e)).norm() < 1e-12, "{j}: {t} vs {e}");
+            }
+        };
+        check(
+            placed(0, 4),
+            &[(1, s0.0), (3, b.0 * s0.0), (4, s3.0 * b.0 * s0.0)],
+        );
+        // Backward the bridge is taken where it ends, and the scan it skips is placed by its
+        // own step as a leaf.
+        check(
+            placed(4, 4),
+            &[
+                (3, s3.0.inverse()),
+                (2, (s3.0 * s2.0).inverse()),
+                (1, (s3.0 * b.0).inverse()),
+                (0, (s3.0 * b.0 * s0.0).inverse()),
+            ],
+        );
+        // The lag bounds the reach in scans, a bridge's skip included.
+        check(placed(0, 2), &[(1, s0.0)]);
+        check(placed(3, 1), &[(4, s3.0), (2, s2.0.inverse())]);
+        // Without the bridge the chain stops at the untrusted step.
+        assert_eq!(neighbour_poses(&steps, &Bridges::new(), 0, 4).len(), 1);
+    }
+
     /// The chained covariances against a Monte-Carlo of the chain itself.
     #[test]
     fn chained_covariances_match_monte_carlo() {
@@ -107,7 +194,7 @@ mod tests {
             )
         };
         for (k, j) in [(0usize, 2usize), (2, 0), (1, 0)] {
-            let (_, mean, cov) = neighbour_poses(&steps, k, 2)
+            let (_, mean, cov) = neighbour_poses(&steps, &Bridges::new(), k, 2)
                 .into_iter()
                 .find(|n| n.0 == j)
                 .unwrap();
@@ -141,7 +228,8 @@ mod tests {
         }
         // A missing step cuts the chain.
         let cut = vec![steps[0], None];
-        assert_eq!(neighbour_poses(&cut, 0, 2).len(), 1);
-        assert_eq!(neighbour_poses(&cut, 2, 2).len(), 0);
+        let none = Bridges::new();
+        assert_eq!(neighbour_poses(&cut, &none, 0, 2).len(), 1);
+        assert_eq!(neighbour_poses(&cut, &none, 2, 2).len(), 0);
     }
 }

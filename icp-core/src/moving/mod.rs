@@ -12,7 +12,8 @@
 //!
 //! **The principle** (scan differencing by ray casting, as in DATMO: Wang et al. 2007): the
 //! static world agrees with one ego-motion across scans k−L..k+L. Chained through the
-//! registrations of consecutive scans ([`chain`]), a return of scan k falls along some ray of
+//! registrations of consecutive scans, and over the steps the chain does not trust by
+//! registrations that skip them ([`Bridges`]), a return of scan k falls along some ray of
 //! each neighbouring scan; when that scan's rays there all met nothing until well beyond the
 //! return ([`range_image`]), the neighbour looked through where the return lies: something
 //! moved. The bow of a hull is seen so from the scans before (it had not arrived), its stern
@@ -40,7 +41,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 pub use between::{beside, left_out_points, Between};
-pub use chain::{neighbour_poses, Step};
+pub use chain::{neighbour_poses, Bridges, Step};
 pub use free_space::FreeSpace;
 pub use range_image::{RangeImage, Window};
 
@@ -59,16 +60,16 @@ pub struct Neighbour<'a> {
 }
 
 impl<'a> Neighbour<'a> {
-    /// Scan `k`'s neighbours within `lag` scans on each side, placed by chaining `steps`
-    /// ([`neighbour_poses`]), each with its range image `image(j)` (a scan without one is
+    /// Scan `k`'s neighbours within `lag` scans on each side, placed by chaining `steps` and
+    /// `bridges` ([`neighbour_poses`]), each with its range image `image(j)` (a scan without one is
     /// left out).
     pub fn placed(
-        steps: &[Option<Step>],
+        (steps, bridges): (&[Option<Step>], &Bridges),
         k: usize,
         lag: usize,
         image: impl Fn(usize) -> Option<&'a RangeImage>,
     ) -> Vec<Self> {
-        neighbour_poses(steps, k, lag)
+        neighbour_poses(steps, bridges, k, lag)
             .into_iter()
             .filter_map(|(j, t_nb_scan, covariance)| {
                 Some(Self {

@@ -1,0 +1,255 @@
+//! Bridges over the consecutive registrations a detector's chain does not trust
+//! ([`icp_core::moving::Bridges`]). Where the hulls pass, consecutive pairs get flagged
+//! `dynamic` (the moving returns split their evidence), and a chain that stops at them cannot
+//! place the scans beyond: a scan near such a step is judged by the neighbours of one side,
+//! and misses what moves there. A registration of the scan the flagged steps start from onto
+//! the scan one trusted step beyond them (skipping the scans the flags fall on), made as a
+//! pair across lags is (`--lags`: the same init chain and checks, the search window scaled to
+//! its lag) and trusted only where its own status is `ok`, carries the chain over them.
+//!
+//! Steps flagged as not seeing one scene (no overlap, suspect, failed) are not bridged: on
+//! aces (`--init global --lags 2`) bridges over them were `ok` and wrong along the corridor,
+//! and the neighbours placed through them saw its walls move (docs/moving-returns.md).
+
+use datasets::{Dataset, ScanPair};
+use icp_core::moving::{Bridges, Step};
+use icp_core::Registrar;
+use indicatif::ProgressBar;
+
+use super::{own_detector, register_again, Detections};
+use crate::run::lags::{self, LagPair, LagRuns};
+use crate::run::runner::{Methods, PairRun, RunPlan, Runs};
+use crate::run::status::PairStatus;
+
+/// The most untrusted consecutive steps a bridge spans (it skips their scans but the first and
+/// lands one trusted step beyond them: a pair across at most this plus one).
+pub const MAX_UNTRUSTED_STEPS: usize = 2;
+
+/// What a chain makes of a pair of the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Link {
+    /// A step it takes.
+    Trusted,
+    /// A consecutive pair flagged `dynamic`: moving returns split its evidence, and a bridge
+    /// may span it.
+    Split,
+    /// Neither: not consecutive, or flagged as not seeing one scene (no overlap, suspect,
+    /// failed), where a registration across it cannot be trusted either.
+    Absent,
+}
+
+/// The bridges a chain through the run's consecutive `pairs` asks for (`link`: what it makes
+/// of the pair at a position): per maximal run of at most [`MAX_UNTRUSTED_STEPS`] `Split`
+/// steps `a → … → c` followed by a trusted step `c → c+1`, the pair `a → c+1`.
+pub fn wanted(pairs: &[ScanPair], link: impl Fn(usize) -> Link) -> Vec<LagPair> {
+    let joined = |i: usize, j: usize| pairs[j].source == pairs[i].reference;
+    let mut out = Vec::new();
+    let mut first = 0;
+    while first < pairs.len() {
+        if link(first) != Link::Split {
+            first += 1;
+            continue;
+        }
+        let mut last = first;
+        while last + 1 < pairs.len() && joined(last, last + 1) && link(last + 1) == Link::Split {
+            last += 1;
+        }
+        let next = last + 1;
+        let lands = next < pairs.len() && joined(last, next) && link(next) == Link::Trusted;
+        if lands && last - first < MAX_UNTRUSTED_STEPS {
+            out.push(LagPair {
+                pair: ScanPair {
+                    source: pairs[first].source,
+                    reference: pairs[next].reference,
+                },
+                lag: next - first + 1,
+                first,
+            });
+        }
+        first = next;
+    }
+    out
+}
+
+/// The bridges of a detector's rounds: per registrar, those its chain asks for now, and every
+/// one registered so far (again without what each round found, as the consecutive pairs are).
+#[derive(Default)]
+pub struct Bridging {
+    /// Per registrar, the bridges its chain asks for in this round.
+    wanted: Vec<Vec<LagPair>>,
+    /// Every bridge registered so far, by every registrar.
+    made: Option<LagRuns>,
+}
+
+impl Bridging {
+    /// Asks, per registrar detecting in `round` by its own `runs` of the consecutive `pairs`
+    /// (`trusted`: whether a run is a step of its chain), for the bridges its chain wants
+    /// ([`wanted`]), and registers those not made yet with `registrars` as `plan` says, then
+    /// again without what the rounds before found (`found`; none in the first round).
+    pub fn ask(
+        &mut self,
+        (ds, pairs): (&Dataset, &[ScanPair]),
+        (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
+        (runs, round): (&Runs, usize),
+        found: &[Option<Detections>],
+        trusted: impl Fn(&PairRun) -> bool,
+    ) {
+        self.wanted = registrars
+            .iter()
+            .zip(&runs.per_variant)
+            .map(
+                |(reg, variant_runs)| match own_detector(reg.as_ref(), round) {
+                    Some(_) => wanted(pairs, |i| {
+                        let run = &variant_runs[i];
+                        if pairs[i].reference != pairs[i].source + 1 {
+                            Link::Absent
+                        } else if trusted(run) {
+                            Link::Trusted
+                        } else if matches!(run.status, PairStatus::Dynamic { .. }) {
+                            Link::Split
+                        } else {
+                            Link::Absent
+                        }
+                    }),
+                    None => Vec::new(),
+                },
+            )
+            .collect();
+        let mut new: Vec<LagPair> = self
+            .wanted
+            .iter()
+            .flatten()
+            .filter(|w| self.made.as_ref().is_none_or(|m| !m.pairs.contains(w)))
+            .copied()
+            .collect();
+        new.sort_by_key(|p| (p.lag, p.first));
+        new.dedup();
+        let Some(lags) = new.iter().map(|p| p.lag).max() else {
+            return;
+        };
+        let methods = Methods::registrars(registrars);
+        let progress = ProgressBar::hidden();
+        let Some(mut fresh) = lags::run(ds, new, lags, methods, plan, &progress) else {
+            return;
+        };
+        if found.iter().any(Option::is_some) {
+            let fresh_pairs: Vec<ScanPair> = fresh.pairs.iter().map(|p| p.pair).collect();
+            register_again(
+                ds,
+                &fresh_pairs,
+                (registrars, plan),
+                found,
+                &[],
+                &mut fresh.runs,
+            );
+        }
+        match self.made.as_mut() {
+            Some(made) => {
+                made.pairs.extend(fresh.pairs);
+                made.runs.append_pairs(fresh.runs);
+            }
+            None => self.made = Some(fresh),
+        }
+    }
+
+    /// Registrar `v`'s bridges that its chain takes: those it asks for whose registration is
+    /// a step (`step`; `ok`).
+    pub fn of(&self, v: usize, step: impl Fn(&PairRun) -> Option<Step>) -> Bridges {
+        let (Some(made), Some(wanted)) = (&self.made, self.wanted.get(v)) else {
+            return Bridges::new();
+        };
+        wanted
+            .iter()
+            .filter_map(|w| {
+                let i = made.pairs.iter().position(|p| p == w)?;
+                let run = made.runs.per_variant.get(v)?.get(i)?;
+                Some((w.pair.source, (w.pair.reference, step(run)?)))
+            })
+            .collect()
+    }
+
+    /// Every bridge registered again without what `found` left out (the registrars without a
+    /// detection keep theirs).
+    pub fn again(
+        &mut self,
+        ds: &Dataset,
+        (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
+        found: &[Option<Detections>],
+    ) {
+        let Some(made) = self.made.as_mut() else {
+            return;
+        };
+        if found.iter().any(Option::is_some) {
+            let pairs: Vec<ScanPair> = made.pairs.iter().map(|p| p.pair).collect();
+            register_again(ds, &pairs, (registrars, plan), found, &[], &mut made.runs);
+        }
+    }
+
+    /// Adds each bridge's registration time to the time of the pair its untrusted steps start
+    /// at (`runs` of the run's pairs): the chain's cost of the bridge.
+    pub fn charge(&self, runs: &mut Runs) {
+        let Some(made) = &self.made else { return };
+        for (bridge_runs, variant_runs) in made.runs.per_variant.iter().zip(&mut runs.per_variant) {
+            for (bridge, run) in made.pairs.iter().zip(bridge_runs) {
+                let at = variant_runs.get_mut(bridge.first);
+                if let (Some(t), Some(us)) = (at.and_then(|r| r.time_us.as_mut()), run.time_us) {
+                    *t += us;
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn consecutive(scans: std::ops::Range<usize>) -> Vec<ScanPair> {
+        scans
+            .map(|k| ScanPair {
+                source: k,
+                reference: k + 1,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn bridges_span_short_runs_of_split_steps_to_a_trusted_one() {
+        let pairs = consecutive(0..14);
+        // Split: 2 (one step), 5–6 (two), 8–10 (three: too many), 13 (the last step: nothing
+        // to land on); 12 is absent (suspect, say), so the split step 11 before it is not
+        // bridged either.
+        let spans: Vec<_> = wanted_of(&pairs, &[2, 5, 6, 8, 9, 10, 11, 13], &[12])
+            .iter()
+            .map(|w| (w.pair.source, w.pair.reference, w.lag, w.first))
+            .collect();
+        assert_eq!(spans, vec![(2, 4, 2, 2), (5, 8, 3, 5)]);
+        // A run of a split and an absent step is not bridged: the bridge would cross a pair
+        // whose scans may not see one scene.
+        assert!(wanted_of(&pairs, &[3], &[4]).is_empty());
+        // A gap in the run's pairs (scan 4 missing) is not bridged over.
+        let mut holed = consecutive(0..4);
+        holed.extend(consecutive(5..8));
+        assert!(wanted_of(&holed, &[3], &[]).is_empty());
+        let spans: Vec<_> = wanted_of(&holed, &[1], &[])
+            .iter()
+            .map(|w| w.pair)
+            .collect();
+        assert_eq!(
+            spans,
+            vec![ScanPair {
+                source: 1,
+                reference: 3
+            }]
+        );
+    }
+
+    fn wanted_of(pairs: &[ScanPair], split: &[usize], absent: &[usize]) -> Vec<LagPair> {
+        let consecutive = |i: usize| pairs[i].reference == pairs[i].source + 1;
+        wanted(pairs, |i| match i {
+            _ if !consecutive(i) || absent.contains(&i) => Link::Absent,
+            _ if split.contains(&i) => Link::Split,
+            _ => Link::Trusted,
+        })
+    }
+}
