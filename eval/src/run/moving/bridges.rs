@@ -244,6 +244,66 @@ mod tests {
         );
     }
 
+    /// A registrar's chain takes the bridges it asks for whose registration is a step, and
+    /// each bridge's time is charged to the pair its flagged steps start at.
+    #[test]
+    fn a_chain_takes_its_ok_bridges_and_pays_for_all() {
+        let run = |status: PairStatus, us: f64| PairRun {
+            result: Err(icp_core::IcpError::NonFiniteTransform),
+            status,
+            check: None,
+            ambiguity: None,
+            init: None,
+            attempts: 0,
+            time_us: Some(us),
+            left_out: None,
+        };
+        let dynamic = || PairStatus::Dynamic {
+            source_share: 0.1,
+            reference_share: 0.1,
+            without: nalgebra::Isometry2::identity(),
+            with: nalgebra::Isometry2::identity(),
+        };
+        let pairs = consecutive(0..10);
+        let wanted = wanted_of(&pairs, &[2, 6], &[]);
+        let made = LagRuns {
+            pairs: wanted.clone(),
+            runs: Runs {
+                per_variant: vec![vec![run(PairStatus::Ok, 7.0), run(dynamic(), 11.0)]],
+                prepare_us: Vec::new(),
+                searches: Vec::new(),
+            },
+        };
+        let bridging = Bridging {
+            wanted: vec![wanted],
+            made: Some(made),
+        };
+        let step = |r: &PairRun| {
+            (r.status == PairStatus::Ok)
+                .then(|| (nalgebra::Isometry2::identity(), nalgebra::Matrix3::zeros()))
+        };
+        let taken = bridging.of(0, step);
+        assert_eq!(taken.keys().copied().collect::<Vec<_>>(), vec![2]);
+        assert_eq!(taken[&2].0, 4);
+        assert!(
+            bridging.of(1, step).is_empty(),
+            "a registrar that asked for none"
+        );
+        let mut runs = Runs {
+            per_variant: vec![(0..10).map(|_| run(PairStatus::Ok, 100.0)).collect()],
+            prepare_us: Vec::new(),
+            searches: Vec::new(),
+        };
+        bridging.charge(&mut runs);
+        let times: Vec<f64> = runs.per_variant[0]
+            .iter()
+            .filter_map(|r| r.time_us)
+            .collect();
+        assert_eq!(times[2], 107.0);
+        assert_eq!(times[6], 111.0);
+        assert_eq!(times.iter().sum::<f64>(), 1018.0);
+    }
+
     fn wanted_of(pairs: &[ScanPair], split: &[usize], absent: &[usize]) -> Vec<LagPair> {
         let consecutive = |i: usize| pairs[i].reference == pairs[i].source + 1;
         wanted(pairs, |i| match i {
