@@ -71,21 +71,28 @@ pub fn wanted(pairs: &[ScanPair], link: impl Fn(usize) -> Link) -> Vec<LagPair> 
     out
 }
 
-/// The bridges of a detector's rounds: per registrar, those its chain asks for now, and every
-/// one registered so far (again without what each round found, as the consecutive pairs are).
+/// The bridges of a detector's rounds, per registrar (each registers its own): those its
+/// chain asks for now, and every one it registered so far (again without what each round
+/// found, as its consecutive pairs are).
 #[derive(Default)]
 pub struct Bridging {
-    /// Per registrar, the bridges its chain asks for in this round.
-    wanted: Vec<Vec<LagPair>>,
-    /// Every bridge registered so far, by every registrar.
+    chains: Vec<Chain>,
+}
+
+/// One registrar's bridges.
+#[derive(Default)]
+struct Chain {
+    /// The bridges it asks for in this round.
+    wanted: Vec<LagPair>,
+    /// Every bridge it registered so far.
     made: Option<LagRuns>,
 }
 
 impl Bridging {
     /// Asks, per registrar detecting in `round` by its own `runs` of the consecutive `pairs`
     /// (`trusted`: whether a run is a step of its chain), for the bridges its chain wants
-    /// ([`wanted`]), and registers those not made yet with `registrars` as `plan` says, then
-    /// again without what the rounds before found (`found`; none in the first round).
+    /// ([`wanted`]), and registers those it has not made yet as `plan` says, then again
+    /// without what the rounds before found (`found`; none in the first round).
     pub fn ask(
         &mut self,
         (ds, pairs): (&Dataset, &[ScanPair]),
@@ -94,12 +101,12 @@ impl Bridging {
         found: &[Option<Detections>],
         trusted: impl Fn(&PairRun) -> bool,
     ) {
-        self.wanted = registrars
-            .iter()
-            .zip(&runs.per_variant)
-            .map(
-                |(reg, variant_runs)| match own_detector(reg.as_ref(), round) {
-                    Some(_) => wanted(pairs, |i| {
+        self.chains.resize_with(registrars.len(), Chain::default);
+        for (v, chain) in self.chains.iter_mut().enumerate() {
+            chain.wanted = match own_detector(registrars[v].as_ref(), round) {
+                Some(_) => {
+                    let variant_runs = &runs.per_variant[v];
+                    wanted(pairs, |i| {
                         let run = &variant_runs[i];
                         if pairs[i].reference != pairs[i].source + 1 {
                             Link::Absent
@@ -110,38 +117,107 @@ impl Bridging {
                         } else {
                             Link::Absent
                         }
-                    }),
-                    None => Vec::new(),
-                },
-            )
-            .collect();
-        let mut new: Vec<LagPair> = self
+                    })
+                }
+                None => Vec::new(),
+            };
+            let one = (std::slice::from_ref(&registrars[v]), plan);
+            chain.register(ds, one, std::slice::from_ref(&found[v]));
+        }
+    }
+
+    /// Registrar `v`'s bridges that its chain takes: those it asks for whose registration is
+    /// a step (`step`; `ok`).
+    pub fn of(&self, v: usize, step: impl Fn(&PairRun) -> Option<Step>) -> Bridges {
+        let Some(Chain {
+            wanted,
+            made: Some(made),
+        }) = self.chains.get(v)
+        else {
+            return Bridges::new();
+        };
+        wanted
+            .iter()
+            .filter_map(|w| {
+                let i = made.pairs.iter().position(|p| p == w)?;
+                Some((
+                    w.pair.source,
+                    (w.pair.reference, step(&made.runs.per_variant[0][i])?),
+                ))
+            })
+            .collect()
+    }
+
+    /// Every bridge registered again, per registrar, without what `found` left out (a
+    /// registrar without a detection keeps its bridges as they are).
+    pub fn again(
+        &mut self,
+        ds: &Dataset,
+        (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
+        found: &[Option<Detections>],
+    ) {
+        for (v, chain) in self.chains.iter_mut().enumerate() {
+            let (Some(made), Some(_)) = (chain.made.as_mut(), &found[v]) else {
+                continue;
+            };
+            let pairs: Vec<ScanPair> = made.pairs.iter().map(|p| p.pair).collect();
+            let one = (std::slice::from_ref(&registrars[v]), plan);
+            register_again(
+                ds,
+                &pairs,
+                one,
+                std::slice::from_ref(&found[v]),
+                &[],
+                &mut made.runs,
+            );
+        }
+    }
+
+    /// Adds each bridge's registration time to its registrar's time of the pair its flagged
+    /// steps start at (`runs` of the run's pairs): the chain's cost of the bridge.
+    pub fn charge(&self, runs: &mut Runs) {
+        for (chain, variant_runs) in self.chains.iter().zip(&mut runs.per_variant) {
+            let Some(made) = &chain.made else { continue };
+            for (bridge, run) in made.pairs.iter().zip(&made.runs.per_variant[0]) {
+                let at = variant_runs.get_mut(bridge.first);
+                if let (Some(t), Some(us)) = (at.and_then(|r| r.time_us.as_mut()), run.time_us) {
+                    *t += us;
+                }
+            }
+        }
+    }
+}
+
+impl Chain {
+    /// Registers the bridges it asks for and has not made (`registrar`: its own, alone), then
+    /// again without what the rounds before found (`found`, its own).
+    fn register(
+        &mut self,
+        ds: &Dataset,
+        (registrar, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
+        found: &[Option<Detections>],
+    ) {
+        let made = &self.made;
+        let new: Vec<LagPair> = self
             .wanted
             .iter()
-            .flatten()
-            .filter(|w| self.made.as_ref().is_none_or(|m| !m.pairs.contains(w)))
+            .filter(|w| made.as_ref().is_none_or(|m| !m.pairs.contains(w)))
             .copied()
             .collect();
-        new.sort_by_key(|p| (p.lag, p.first));
-        new.dedup();
         let Some(lags) = new.iter().map(|p| p.lag).max() else {
             return;
         };
-        let methods = Methods::registrars(registrars);
+        let methods = Methods::registrars(registrar);
         let progress = ProgressBar::hidden();
-        let Some(mut fresh) = lags::run(ds, new, lags, methods, plan, &progress) else {
+        // `wanted` is in the run's order; `lags::run` takes each lag's pairs together.
+        let mut by_lag = new;
+        by_lag.sort_by_key(|p| (p.lag, p.first));
+        let Some(mut fresh) = lags::run(ds, by_lag, lags, methods, plan, &progress) else {
             return;
         };
         if found.iter().any(Option::is_some) {
-            let fresh_pairs: Vec<ScanPair> = fresh.pairs.iter().map(|p| p.pair).collect();
-            register_again(
-                ds,
-                &fresh_pairs,
-                (registrars, plan),
-                found,
-                &[],
-                &mut fresh.runs,
-            );
+            let pairs: Vec<ScanPair> = fresh.pairs.iter().map(|p| p.pair).collect();
+            register_again(ds, &pairs, (registrar, plan), found, &[], &mut fresh.runs);
         }
         match self.made.as_mut() {
             Some(made) => {
@@ -149,53 +225,6 @@ impl Bridging {
                 made.runs.append_pairs(fresh.runs);
             }
             None => self.made = Some(fresh),
-        }
-    }
-
-    /// Registrar `v`'s bridges that its chain takes: those it asks for whose registration is
-    /// a step (`step`; `ok`).
-    pub fn of(&self, v: usize, step: impl Fn(&PairRun) -> Option<Step>) -> Bridges {
-        let (Some(made), Some(wanted)) = (&self.made, self.wanted.get(v)) else {
-            return Bridges::new();
-        };
-        wanted
-            .iter()
-            .filter_map(|w| {
-                let i = made.pairs.iter().position(|p| p == w)?;
-                let run = made.runs.per_variant.get(v)?.get(i)?;
-                Some((w.pair.source, (w.pair.reference, step(run)?)))
-            })
-            .collect()
-    }
-
-    /// Every bridge registered again without what `found` left out (the registrars without a
-    /// detection keep theirs).
-    pub fn again(
-        &mut self,
-        ds: &Dataset,
-        (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
-        found: &[Option<Detections>],
-    ) {
-        let Some(made) = self.made.as_mut() else {
-            return;
-        };
-        if found.iter().any(Option::is_some) {
-            let pairs: Vec<ScanPair> = made.pairs.iter().map(|p| p.pair).collect();
-            register_again(ds, &pairs, (registrars, plan), found, &[], &mut made.runs);
-        }
-    }
-
-    /// Adds each bridge's registration time to the time of the pair its untrusted steps start
-    /// at (`runs` of the run's pairs): the chain's cost of the bridge.
-    pub fn charge(&self, runs: &mut Runs) {
-        let Some(made) = &self.made else { return };
-        for (bridge_runs, variant_runs) in made.runs.per_variant.iter().zip(&mut runs.per_variant) {
-            for (bridge, run) in made.pairs.iter().zip(bridge_runs) {
-                let at = variant_runs.get_mut(bridge.first);
-                if let (Some(t), Some(us)) = (at.and_then(|r| r.time_us.as_mut()), run.time_us) {
-                    *t += us;
-                }
-            }
         }
     }
 }
@@ -275,8 +304,10 @@ mod tests {
             },
         };
         let bridging = Bridging {
-            wanted: vec![wanted],
-            made: Some(made),
+            chains: vec![Chain {
+                wanted,
+                made: Some(made),
+            }],
         };
         let step = |r: &PairRun| {
             (r.status == PairStatus::Ok)
