@@ -334,14 +334,7 @@ fn rounds(
     let mut bridging = Bridging::default();
     let mut found: Vec<Option<Detections>> = vec![None; registrars.len()];
     for round in 0..rounds {
-        let trusted = |run: &PairRun| step_of(run, 0.0).is_some();
-        bridging.ask(
-            (ds, pairs),
-            (registrars, plan),
-            (runs, round),
-            &found,
-            trusted,
-        );
+        bridging.ask((ds, pairs), (registrars, plan), (runs, round), &found);
         let detections = detect((ds, pairs), images, (registrars, runs), round, &bridging);
         // The last round's registrations are made by the caller, with the lag pairs'.
         let later: Vec<Option<Detections>> = detections
@@ -479,17 +472,21 @@ fn steps(scans: usize, pairs: &[ScanPair], runs: &[PairRun], inflation: f64) -> 
     steps
 }
 
-/// A registration `run` as a step of a chain, where it is `ok`: its motion with its extended
-/// covariance (the closed form times `inflation`, lifted to what its residuals show:
-/// [`extended`]; zero where it has none, and the detector's floor then speaks).
+/// A registration `run` as a step of a chain, where it is one ([`is_step`]): its motion with
+/// its extended covariance (the closed form times `inflation`, lifted to what its residuals
+/// show: [`extended`]; zero where it has none, and the detector's floor then speaks).
 fn step_of(run: &PairRun, inflation: f64) -> Option<Step> {
-    let Ok(reg) = &run.result else { return None };
-    (run.status == PairStatus::Ok).then(|| {
-        let covariance = extended(reg, inflation)
-            .and_then(|c| c.bounded().copied())
-            .unwrap_or_else(Matrix3::zeros);
-        (reg.t_ref_src, covariance)
-    })
+    let reg = run.result.as_ref().ok().filter(|_| is_step(run))?;
+    let covariance = extended(reg, inflation)
+        .and_then(|c| c.bounded().copied())
+        .unwrap_or_else(Matrix3::zeros);
+    Some((reg.t_ref_src, covariance))
+}
+
+/// Whether a chain takes a registration `run` as a step: it has a result, and its status is
+/// `ok`.
+fn is_step(run: &PairRun) -> bool {
+    run.result.is_ok() && run.status == PairStatus::Ok
 }
 
 #[cfg(test)]

@@ -16,7 +16,7 @@ use icp_core::moving::{Bridges, Step};
 use icp_core::Registrar;
 use indicatif::ProgressBar;
 
-use super::{own_detector, register_again, Detections};
+use super::{is_step, own_detector, register_again, Detections};
 use crate::run::lags::{self, LagPair, LagRuns};
 use crate::run::runner::{Methods, PairRun, RunPlan, Runs};
 use crate::run::status::PairStatus;
@@ -89,17 +89,16 @@ struct Chain {
 }
 
 impl Bridging {
-    /// Asks, per registrar detecting in `round` by its own `runs` of the consecutive `pairs`
-    /// (`trusted`: whether a run is a step of its chain), for the bridges its chain wants
-    /// ([`wanted`]), and registers those it has not made yet as `plan` says, then again
-    /// without what the rounds before found (`found`; none in the first round).
+    /// Asks, per registrar detecting in `round` by its own `runs` of the consecutive `pairs`,
+    /// for the bridges its chain wants ([`wanted`]), and registers those it has not made yet
+    /// as `plan` says, then again without what the rounds before found (`found`; none in the
+    /// first round).
     pub fn ask(
         &mut self,
         (ds, pairs): (&Dataset, &[ScanPair]),
         (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
         (runs, round): (&Runs, usize),
         found: &[Option<Detections>],
-        trusted: impl Fn(&PairRun) -> bool,
     ) {
         self.chains.resize_with(registrars.len(), Chain::default);
         for (v, chain) in self.chains.iter_mut().enumerate() {
@@ -110,7 +109,7 @@ impl Bridging {
                         let run = &variant_runs[i];
                         if pairs[i].reference != pairs[i].source + 1 {
                             Link::Absent
-                        } else if trusted(run) {
+                        } else if is_step(run) {
                             Link::Trusted
                         } else if matches!(run.status, PairStatus::Dynamic { .. }) {
                             Link::Split
