@@ -22,7 +22,8 @@ use crate::run::runner::{Methods, PairRun, RunPlan, Runs};
 use crate::run::status::PairStatus;
 
 /// The most untrusted consecutive steps a bridge spans (it skips their scans but the first and
-/// lands one trusted step beyond them: a pair across at most this plus one).
+/// lands one trusted step beyond them: a pair across at most this plus one, 3, the lags the
+/// sequence smoother registers by default). Not tuned on data.
 pub const MAX_UNTRUSTED_STEPS: usize = 2;
 
 /// What a chain makes of a pair of the run.
@@ -33,8 +34,9 @@ pub enum Link {
     /// A consecutive pair flagged `dynamic`: moving returns split its evidence, and a bridge
     /// may span it.
     Split,
-    /// Neither: not consecutive, or flagged as not seeing one scene (no overlap, suspect,
-    /// failed), where a registration across it cannot be trusted either.
+    /// Neither: not consecutive, or flagged otherwise (no overlap, suspect and failed say its
+    /// scans may not see one scene, where a registration across them cannot be trusted
+    /// either; degenerate and ambiguous, weak geometry, which a bridge would share).
     Absent,
 }
 
