@@ -317,22 +317,19 @@ fn rounds(
     (registrars, plan): (&[Box<dyn Registrar>], &RunPlan<'_>),
     runs: &mut Runs,
 ) -> (Vec<Option<Detections>>, Vec<Option<Detections>>) {
-    let own = |r: &dyn Registrar| {
-        r.moving()
-            .filter(|m| m.placement() == Placement::Own)
-            .map_or(0, |m| m.rounds())
-    };
+    let own = |r: &dyn Registrar| own_detector(r, 0).map_or(0, |m| m.rounds());
     let rounds = registrars
         .iter()
         .map(|r| own(r.as_ref()))
         .max()
         .unwrap_or(0);
     let mut last: Vec<Option<Detections>> = vec![None; registrars.len()];
-    let mut registered: Vec<(usize, Option<Detections>)> = vec![(0, None); registrars.len()];
-    // The bridges over the steps each chain does not trust, registered as they are asked
-    // for; `found`: what the rounds before left out of the pairs registered again.
-    let mut bridging = Bridging::default();
+    // Per registrar, how many times its runs were registered again, and with what the last
+    // time (what the rounds before left out; the bridges are registered again with it too).
+    let mut times = vec![0usize; registrars.len()];
     let mut found: Vec<Option<Detections>> = vec![None; registrars.len()];
+    // The bridges over the steps each chain does not trust, registered as they are asked for.
+    let mut bridging = Bridging::default();
     for round in 0..rounds {
         bridging.ask((ds, pairs), (registrars, plan), (runs, round), &found);
         let detections = detect((ds, pairs), images, (registrars, runs), round, &bridging);
@@ -344,14 +341,9 @@ fn rounds(
             .collect();
         register_again(ds, pairs, (registrars, plan), &later, &[], runs);
         bridging.again(ds, (registrars, plan), &later);
-        for ((times, with), d) in registered.iter_mut().zip(&later) {
+        for ((t, f), d) in times.iter_mut().zip(&mut found).zip(&later) {
             if d.is_some() {
-                *times += 1;
-                with.clone_from(d);
-            }
-        }
-        for (f, d) in found.iter_mut().zip(&later) {
-            if d.is_some() {
+                *t += 1;
                 f.clone_from(d);
             }
         }
@@ -362,9 +354,10 @@ fn rounds(
         }
     }
     bridging.charge(runs);
-    let once = registered
+    let once = found
         .into_iter()
-        .map(|(times, with)| with.filter(|_| times == 1))
+        .zip(times)
+        .map(|(with, t)| with.filter(|_| t == 1))
         .collect();
     (last, once)
 }
