@@ -9,7 +9,10 @@
 //!   read after, as in a run, where an image serves 16 scans in each round);
 //! - `register-again`: the second registration of the pair without the returns left out,
 //!   from the first result, the masked scans' surface estimates included (as the harness does
-//!   it, once per scan and round, shared by the scan's two pairs).
+//!   it, once per scan and round, shared by the scan's two pairs);
+//! - `predict`: the untrusted steps of the whole chain (every tenth of its 138 steps) predicted
+//!   from the trusted ones on either side (`icp_core::moving::predicted`, once per round and
+//!   registrar in a run, over all its steps: not per pair).
 //!
 //! The stage runs `detect` and `register-again` once per round (two by default) on top of the
 //! first registration.
@@ -19,7 +22,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use datasets::synthetic::{generate, Scenario};
 use datasets::ScanPair;
-use icp_core::moving::{Bridges, FreeSpace, MovingReturns, Neighbour, RangeImage};
+use icp_core::moving::{predicted, Bridges, FreeSpace, MovingReturns, Neighbour, RangeImage};
 use icp_core::variants::builtin;
 use icp_core::{Prepared, Registrar, Scan, Surfaces, Workspace};
 use nalgebra::{Isometry2, Matrix3, Vector3};
@@ -127,6 +130,19 @@ fn moving(c: &mut Criterion) {
                         .register_prepared(&mut workspace, prepared(i), prepared(i + 1), firsts[i])
                         .is_ok()
                 })
+                .count()
+        })
+    });
+    let holed: Vec<_> = steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| s.filter(|_| i % 10 != 5))
+        .collect();
+    g.bench_function("predict", |b| {
+        b.iter(|| {
+            predicted(&holed, &Bridges::new(), |_| true, 1.0)
+                .iter()
+                .filter(|s| s.is_some())
                 .count()
         })
     });

@@ -1,7 +1,8 @@
 //! The second pass of a variant with a detector of moving returns ([`icp_core::moving`]): once
 //! every consecutive pair is registered, each scan's detector runs against its neighbours
 //! (k−L..k+L, chained through the same variant's registrations whose status is `ok`, and over
-//! its `dynamic` ones by registrations that skip them: `moving::bridges`), each
+//! its `dynamic` ones by registrations that skip them, `moving::bridges`, or where none holds
+//! by the trusted steps on either side, [`icp_core::moving::predicted`]), each
 //! scan's detection is completed from what the scans on either side left out
 //! ([`MovingReturns::fill_between`]), and
 //! every pair whose scans have returns left out is registered again without them, starting
@@ -29,7 +30,8 @@ use std::time::Instant;
 
 use datasets::{Dataset, ScanPair};
 use icp_core::moving::{
-    beside, left_out_points, Detection, MovingReturns, Neighbour, Placement, RangeImage, Step,
+    beside, left_out_points, predicted, Detection, MovingReturns, Neighbour, Placement, RangeImage,
+    Step,
 };
 use icp_core::registry::StageSpec;
 use icp_core::spec::VariantSpec;
@@ -41,7 +43,7 @@ use nalgebra::Matrix3;
 use rayon::prelude::*;
 
 pub use again::{register_again, Made};
-use bridges::Bridging;
+use bridges::{link, Bridging, Link};
 
 use crate::run::covariance::closed_form_inflation;
 use crate::run::extended::extended;
@@ -404,6 +406,9 @@ fn detect(
             let inflation = closed_form_inflation(&reg.spec().metric);
             let steps = steps(ds.scans.len(), pairs, variant_runs, inflation);
             let bridges = bridging.of(v, |run| step_of(run, inflation));
+            let split = splits(ds.scans.len(), pairs, variant_runs);
+            let max_turn_rad = std::f64::consts::SQRT_2 * sensor.sigma_alpha_rad;
+            let steps = predicted(&steps, &bridges, |i| split[i], max_turn_rad);
             let detected: Detections = scans
                 .par_iter()
                 .map(|&k| {
@@ -463,6 +468,21 @@ fn steps(scans: usize, pairs: &[ScanPair], runs: &[PairRun], inflation: f64) -> 
         }
     }
     steps
+}
+
+/// Per scan i, whether the consecutive pair i → i+1 is among `pairs` and flagged `dynamic`
+/// ([`Link::Split`]): the steps a bridge may span or, where none holds, the trusted steps on
+/// either side predict ([`predicted`]; steps flagged as not seeing one scene, or of weak
+/// geometry, are neither: on the corridor their predictions left out twice the static returns,
+/// docs/moving-returns.md).
+fn splits(scans: usize, pairs: &[ScanPair], runs: &[PairRun]) -> Vec<bool> {
+    let mut split = vec![false; scans];
+    for (&pair, run) in pairs.iter().zip(runs) {
+        if link(pair, run) == Link::Split {
+            split[pair.source] = true;
+        }
+    }
+    split
 }
 
 /// A registration `run` as a step of a chain, where it is one ([`is_step`]): its motion with

@@ -1,6 +1,7 @@
 //! The poses of a scan's neighbours in the sequence, chained from the registrations of
 //! consecutive scans, and across the steps those leave untrusted by registrations that skip
-//! them (bridges), with their first-order covariances.
+//! them (bridges), with their first-order covariances. Steps predicted from the trusted ones
+//! on either side ([`super::predicted`]) come to the chain as trusted steps.
 
 use std::collections::BTreeMap;
 

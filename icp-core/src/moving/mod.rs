@@ -13,7 +13,8 @@
 //! **The principle** (scan differencing by ray casting, as in DATMO: Wang et al. 2007): the
 //! static world agrees with one ego-motion across scans k−L..k+L. Chained through the
 //! registrations of consecutive scans, and over the steps the chain does not trust by
-//! registrations that skip them ([`Bridges`]), a return of scan k falls along some ray of
+//! registrations that skip them ([`Bridges`]) or, where none holds, by the trusted steps on
+//! either side ([`predicted`]), a return of scan k falls along some ray of
 //! each neighbouring scan; when that scan's rays there all met nothing until well beyond the
 //! return ([`range_image`]), the neighbour looked through where the return lies: something
 //! moved. The bow of a hull is seen so from the scans before (it had not arrived), its stern
@@ -33,6 +34,7 @@
 mod between;
 mod chain;
 mod free_space;
+mod predict;
 mod range_image;
 mod segments;
 
@@ -43,6 +45,7 @@ use serde::{Deserialize, Serialize};
 pub use between::{beside, left_out_points, Between};
 pub use chain::{neighbour_poses, Bridges, Step};
 pub use free_space::FreeSpace;
+pub use predict::{predicted, run_spread, MAX_UNTRUSTED_STEPS};
 pub use range_image::{RangeImage, Window};
 
 use crate::registry::{Family, Kind, NoParams, StageKind, StageSpec};

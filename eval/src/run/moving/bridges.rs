@@ -12,7 +12,7 @@
 //! and the neighbours placed through them saw its walls move (docs/moving-returns.md).
 
 use datasets::{Dataset, ScanPair};
-use icp_core::moving::{Bridges, Step};
+use icp_core::moving::{Bridges, Step, MAX_UNTRUSTED_STEPS};
 use icp_core::Registrar;
 use indicatif::ProgressBar;
 
@@ -20,11 +20,6 @@ use super::{is_step, own_detector, register_again, Detections};
 use crate::run::lags::{self, LagPair, LagRuns};
 use crate::run::runner::{Methods, PairRun, RunPlan, Runs};
 use crate::run::status::PairStatus;
-
-/// The most untrusted consecutive steps a bridge spans (it skips their scans but the first and
-/// lands one trusted step beyond them: a pair across at most this plus one, 3, the lags the
-/// sequence smoother registers by default). Not tuned on data.
-pub const MAX_UNTRUSTED_STEPS: usize = 2;
 
 /// What a chain makes of a pair of the run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,9 +35,24 @@ pub enum Link {
     Absent,
 }
 
+/// What a chain makes of `pair`, registered as `run`.
+pub fn link(pair: ScanPair, run: &PairRun) -> Link {
+    if pair.reference != pair.source + 1 {
+        Link::Absent
+    } else if is_step(run) {
+        Link::Trusted
+    } else if matches!(run.status, PairStatus::Dynamic { .. }) {
+        Link::Split
+    } else {
+        Link::Absent
+    }
+}
+
 /// The bridges a chain through the run's consecutive `pairs` asks for (`link`: what it makes
 /// of the pair at a position): per maximal run of at most [`MAX_UNTRUSTED_STEPS`] `Split`
-/// steps `a → … → c` followed by a trusted step `c → c+1`, the pair `a → c+1`.
+/// steps `a → … → c` followed by a trusted step `c → c+1`, the pair `a → c+1` (a bridge
+/// skips the steps' scans but the first and lands one trusted step beyond them: a pair
+/// across at most 3 scans).
 pub fn wanted(pairs: &[ScanPair], link: impl Fn(usize) -> Link) -> Vec<LagPair> {
     let joined = |i: usize, j: usize| pairs[j].source == pairs[i].reference;
     let mut out = Vec::new();
@@ -107,18 +117,7 @@ impl Bridging {
             chain.wanted = match own_detector(registrars[v].as_ref(), round) {
                 Some(_) => {
                     let variant_runs = &runs.per_variant[v];
-                    wanted(pairs, |i| {
-                        let run = &variant_runs[i];
-                        if pairs[i].reference != pairs[i].source + 1 {
-                            Link::Absent
-                        } else if is_step(run) {
-                            Link::Trusted
-                        } else if matches!(run.status, PairStatus::Dynamic { .. }) {
-                            Link::Split
-                        } else {
-                            Link::Absent
-                        }
-                    })
+                    wanted(pairs, |i| link(pairs[i], &variant_runs[i]))
                 }
                 None => Vec::new(),
             };

@@ -43,6 +43,20 @@ impl Registrar for Wanders {
     }
 }
 
+/// A pair's run without a result, flagged `status`.
+fn run(status: PairStatus) -> PairRun {
+    PairRun {
+        result: Err(IcpError::NonFiniteTransform),
+        status,
+        check: None,
+        ambiguity: None,
+        init: None,
+        attempts: 0,
+        time_us: None,
+        left_out: None,
+    }
+}
+
 /// A detection leaving out the first `n` returns of `scan`.
 fn leaving_first(scan: &Scan, n: usize) -> Detection {
     let left_out = (0..scan.len()).map(|i| i < n).collect();
@@ -178,16 +192,6 @@ fn a_scan_both_placing_registrations_lose_is_isolated_where_the_variant_agrees()
             reference: k + 1,
         })
         .collect();
-    let run = |status: PairStatus| PairRun {
-        result: Err(IcpError::NonFiniteTransform),
-        status,
-        check: None,
-        ambiguity: None,
-        init: None,
-        attempts: 0,
-        time_us: None,
-        left_out: None,
-    };
     let suspect = || PairStatus::Suspect {
         check: crate::run::status::GlobalCheck {
             best_t_ref_src: Some(Isometry2::translation(5.0, 0.0)),
@@ -257,5 +261,30 @@ fn a_scan_both_placing_registrations_lose_is_isolated_where_the_variant_agrees()
         kinds(1),
         vec![StatusKind::Ok; 4],
         "the variant saw one scene"
+    );
+}
+
+/// The steps a chain may predict are the consecutive pairs flagged `dynamic`: not those flagged
+/// otherwise, not an `ok` one, not a lag pair's.
+#[test]
+fn the_split_steps_are_the_consecutive_dynamic_ones() {
+    let dynamic = || PairStatus::Dynamic {
+        source_share: 0.1,
+        reference_share: 0.1,
+        without: Isometry2::identity(),
+        with: Isometry2::identity(),
+    };
+    let pair = |source: usize, reference: usize| ScanPair { source, reference };
+    let pairs = [pair(0, 1), pair(1, 2), pair(2, 3), pair(3, 5), pair(4, 5)];
+    let runs = [
+        run(PairStatus::Ok),
+        run(dynamic()),
+        run(PairStatus::Degenerate { cond_ratio: 1e-3 }),
+        run(dynamic()),
+        run(dynamic()),
+    ];
+    assert_eq!(
+        splits(6, &pairs, &runs),
+        vec![false, true, false, false, true, false]
     );
 }
