@@ -27,7 +27,7 @@ pub enum Link {
     /// A step it takes.
     Trusted,
     /// A consecutive pair flagged `dynamic`: moving returns split its evidence, and a bridge
-    /// may span it.
+    /// may span it (or, where none holds, the trusted steps on either side predict it).
     Split,
     /// Neither: not consecutive, or flagged otherwise (no overlap, suspect and failed say its
     /// scans may not see one scene, where a registration across them cannot be trusted
