@@ -92,6 +92,13 @@ impl SensorModel {
         self.sigma_r_const_m + self.sigma_r_per_m * range_m
     }
 
+    /// Standard deviation of the difference of two independent bearings, `√2 σ_α`, rad: what
+    /// separates the same direction as two scans saw it.
+    #[inline]
+    pub fn bearing_difference_sd_rad(&self) -> f64 {
+        std::f64::consts::SQRT_2 * self.sigma_alpha_rad
+    }
+
     /// Squared mean position error `M² = (σ_α r)² + σ_r²`, m² (eq. 5).
     #[inline]
     pub fn mean_error_sq(&self, range_m: f64) -> f64 {

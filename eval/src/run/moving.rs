@@ -407,7 +407,7 @@ fn detect(
             let steps = steps(ds.scans.len(), pairs, variant_runs, inflation);
             let bridges = bridging.of(v, |run| step_of(run, inflation));
             let split = splits(ds.scans.len(), pairs, variant_runs);
-            let max_turn_rad = std::f64::consts::SQRT_2 * sensor.sigma_alpha_rad;
+            let max_turn_rad = sensor.bearing_difference_sd_rad();
             let steps = predicted(&steps, &bridges, |i| split[i], max_turn_rad);
             let detected: Detections = scans
                 .par_iter()

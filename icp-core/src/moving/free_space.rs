@@ -154,9 +154,8 @@ impl FreeSpace {
     fn half_width_rad(&self, neighbour: &Neighbour<'_>, sensor: &SensorModel) -> f64 {
         // Both bearings' noise (eq. 8's σ_α) moves a return along its surface, and on a
         // surface seen obliquely that is a change of range: the window covers it.
-        let bearing_sigma_rad = std::f64::consts::SQRT_2 * sensor.sigma_alpha_rad;
         (self.half_width_beams * neighbour.image.spacing_rad())
-            .max(self.n_sigma * bearing_sigma_rad)
+            .max(self.n_sigma * sensor.bearing_difference_sd_rad())
     }
 
     /// Whether `neighbour`, asked over its `window`, looked through where return `i` of

@@ -68,14 +68,13 @@ pub fn predicted(
 /// sudden turns do not set). `None` below [`MIN_WINDOWS`] windows.
 pub fn run_spread(steps: &[Option<Step>], g: usize) -> Option<Vector3<f64>> {
     let mut residuals: [Vec<f64>; 3] = Default::default();
-    for m in 1..steps.len().saturating_sub(g) {
-        let window: Option<Vec<Vector3<f64>>> = steps[m - 1..=m + g]
-            .iter()
-            .map(|s| s.as_ref().map(twist))
-            .collect();
-        let Some(w) = window else { continue };
-        let sum: Vector3<f64> = w[1..=g].iter().sum();
-        let r = sum - (w[0] + w[g + 1]) * (g as f64 / 2.0);
+    for w in steps.windows(g + 2) {
+        if !w.iter().all(Option::is_some) {
+            continue;
+        }
+        let at = |j: usize| w[j].as_ref().map_or_else(Vector3::zeros, twist);
+        let sum: Vector3<f64> = (1..=g).map(at).sum();
+        let r = sum - (at(0) + at(g + 1)) * (g as f64 / 2.0);
         for (axis, values) in residuals.iter_mut().enumerate() {
             values.push(r[axis]);
         }
